@@ -1,0 +1,69 @@
+"""Every intent, behaviour and risk threshold, in one documented config.
+
+Defaults follow the seed design (pedestrian 10 m / 5 m, 3 s / 1.5 s; animal
+8 / 4, 2.5 / 1.0; non-motorised 15 / 8, 4 / 2 for HIGH / CRITICAL; MEDIUM at
+2x and LOW at 4x the HIGH thresholds). Vehicles are not in the seed: 10 / 5 m,
+4 / 2 s (Euro NCAP FCW warns between about 1.7 and 2.6 s TTC).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class RiskThresholds(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    high_distance: float = Field(description="m")
+    critical_distance: float = Field(description="m")
+    high_ttc: float = Field(description="s")
+    critical_ttc: float = Field(description="s")
+
+
+class BehaviourThresholds(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    still_speed: float = Field(0.3, description="below this ground speed: standing/stopped/stationary (m/s)")
+    fast_speed: float = Field(2.5, description="pedestrian/animal running, non-motor/vehicle speeding above (m/s)")
+    cross_speed: float = Field(0.5, description="lateral ground speed that counts as crossing/entering (m/s)")
+    brake_decel: float = Field(3.0, description="sudden brake below -this (m/s^2)")
+    turn_rate: float = Field(0.35, description="sudden turn above this |yaw rate| (rad/s)")
+    wrong_way_speed: float = Field(1.0, description="moving against the ego's direction faster than this (m/s)")
+
+
+class IntentConfig(BaseModel):
+    """Thresholds shared by ground truth and predictions (units: m, s, m/s, rad)."""
+
+    model_config = ConfigDict(extra="forbid")
+    ego_half_width: float = Field(0.925, description="half the ego's width (m)")
+    corridor_margin: float = Field(0.5, description="added to each side of the ego corridor (m)")
+    horizon: float = Field(3.0, description="in-path prediction horizon (s)")
+    arrival_slack: float = Field(0.5, description="in-path window ends at min(horizon, TTC + slack) (s)")
+    range_rate_deadband: float = Field(1.0, description="|range rate| below this is 'stable' (m/s)")
+    init_frames: int = Field(3, description="tracks younger than this are 'initializing' (frames)")
+    risk: dict[str, RiskThresholds] = Field(
+        default_factory=lambda: {
+            "pedestrian": RiskThresholds(high_distance=10, critical_distance=5, high_ttc=3.0, critical_ttc=1.5),
+            "animal": RiskThresholds(high_distance=8, critical_distance=4, high_ttc=2.5, critical_ttc=1.0),
+            "non_motor": RiskThresholds(high_distance=15, critical_distance=8, high_ttc=4.0, critical_ttc=2.0),
+            "vehicle": RiskThresholds(high_distance=10, critical_distance=5, high_ttc=4.0, critical_ttc=2.0),
+        }
+    )
+    behaviour: dict[str, BehaviourThresholds] = Field(
+        default_factory=lambda: {
+            "pedestrian": BehaviourThresholds(still_speed=0.3, fast_speed=2.5, cross_speed=0.5),
+            "animal": BehaviourThresholds(still_speed=0.2, fast_speed=3.0, cross_speed=0.3),
+            "non_motor": BehaviourThresholds(still_speed=0.5, fast_speed=7.0, cross_speed=0.8, brake_decel=3.0),
+            "vehicle": BehaviourThresholds(still_speed=0.5, fast_speed=33.3, cross_speed=1.0, brake_decel=4.0),
+        }
+    )
+
+    def with_overrides(self, overrides: dict) -> IntentConfig:
+        """A copy with a (possibly nested) dict of overrides merged in and validated."""
+        merged = _deep_merge(self.model_dump(), overrides or {})
+        return IntentConfig.model_validate(merged)
+
+
+def _deep_merge(base: dict, over: dict) -> dict:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out

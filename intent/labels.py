@@ -1,0 +1,262 @@
+"""Intent labels, behaviours, in-path and risk: ONE implementation for ground truth and predictions.
+
+Everything is computed per object in the ego frame (ISO 8855: x forward, y
+left; m, s, m/s, rad) from a ``Kinematics`` struct of arrays. The simulator
+fills it from true kinematics, the estimator from its tracks; both call
+``assess``. Definitions (docs/architecture.md, "Labels"):
+
+* TTC = range / closing speed when closing (range rate < 0), else inf; 0 when
+  the object already reaches the ego's front (range <= 0).
+* Ego corridor: |y - c(r)| < ego_half_width + corridor_margin + object half
+  width, where c(r) = r^2 * yaw_rate / (2 * speed) bends it along the ego's
+  predicted arc. *In path*: the object overlaps the corridor now or at any time
+  in [0, min(horizon, TTC + arrival_slack)] under constant lateral velocity.
+* Risk: per class group, from TTC (CRITICAL < critical_ttc, HIGH < high_ttc,
+  MEDIUM < 2 x high_ttc, LOW < 4 x high_ttc) and range (same ladder with the
+  distance thresholds; above MEDIUM only while closing). HIGH and CRITICAL
+  need the object in path, otherwise risk is capped at MEDIUM.
+* Labels: ``initializing`` (prediction younger than init_frames) > ``danger``
+  (risk >= HIGH, i.e. in path and TTC or closing range under the HIGH
+  thresholds) > ``approaching`` (range rate < -deadband) > ``receding``
+  (> +deadband) > ``stable``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+import numpy as np
+
+from intent.config import IntentConfig
+from perception.detections import CLASS_ID
+
+
+class Label(IntEnum):
+    INITIALIZING = 0
+    STABLE = 1
+    APPROACHING = 2
+    RECEDING = 3
+    DANGER = 4
+
+
+LABEL_NAMES = {
+    Label.INITIALIZING: "initializing",
+    Label.STABLE: "stable",
+    Label.APPROACHING: "approaching",
+    Label.RECEDING: "receding",
+    Label.DANGER: "danger",
+}
+#: The CARLA study's wording.
+LABEL_NAMES_ZH = {
+    Label.INITIALIZING: "目标初始化中",
+    Label.STABLE: "目标稳定",
+    Label.APPROACHING: "目标靠近中",
+    Label.RECEDING: "目标远离中",
+    Label.DANGER: "危险靠近",
+}
+
+
+class Risk(IntEnum):
+    SAFE = 0
+    LOW = 1
+    MEDIUM = 2
+    HIGH = 3
+    CRITICAL = 4
+
+
+class Behaviour(IntEnum):
+    UNKNOWN = 0
+    STANDING = 1
+    WALKING = 2
+    RUNNING = 3
+    CROSSING = 4
+    STOPPED = 5
+    MOVING = 6
+    SPEEDING = 7
+    SUDDEN_BRAKE = 8
+    SUDDEN_TURN = 9
+    WRONG_WAY = 10
+    STATIONARY = 11
+    ENTERING_ROAD = 12
+
+
+BEHAVIOUR_NAMES = {b: b.name.lower() for b in Behaviour}
+
+#: Class group of each detection class (thresholds are per group).
+GROUP_OF_CLASS = {
+    "pedestrian": "pedestrian",
+    "animal": "animal",
+    "cyclist": "non_motor",
+    "motorcyclist": "non_motor",
+    "tricycle": "non_motor",
+    "car": "vehicle",
+    "truck": "vehicle",
+    "bus": "vehicle",
+}
+GROUPS = ("pedestrian", "animal", "non_motor", "vehicle")
+_GROUP_INDEX = np.full(len(CLASS_ID) + 1, GROUPS.index("vehicle"), dtype=np.int64)
+for _name, _cid in CLASS_ID.items():
+    _GROUP_INDEX[_cid] = GROUPS.index(GROUP_OF_CLASS[_name])
+
+
+@dataclass
+class Kinematics:
+    """N objects in the ego frame.
+
+    range: nearest point's x (m); lateral: centre y (m, left +); half_width:
+    lateral half extent (m); range_rate / lateral_rate: relative velocity (m/s);
+    ground_vx / ground_vy: the object's own velocity over the ground, in ego
+    axes (m/s); accel: its acceleration along its motion (m/s^2, NaN unknown);
+    yaw_rate: its yaw rate (rad/s, NaN unknown); class_id: detection class;
+    age: frames since the track was born (None for ground truth).
+    """
+
+    class_id: np.ndarray
+    range: np.ndarray
+    lateral: np.ndarray
+    half_width: np.ndarray
+    range_rate: np.ndarray
+    lateral_rate: np.ndarray
+    ground_vx: np.ndarray
+    ground_vy: np.ndarray
+    accel: np.ndarray
+    yaw_rate: np.ndarray
+    age: np.ndarray | None = None
+
+    def __len__(self) -> int:
+        return len(self.range)
+
+
+@dataclass
+class Assessment:
+    """Per-object outputs of ``assess`` (all (N,) arrays)."""
+
+    ttc: np.ndarray
+    in_path: np.ndarray
+    risk: np.ndarray
+    label: np.ndarray
+    behaviour: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.ttc)
+
+
+def _threshold_table(config: IntentConfig) -> dict[str, np.ndarray]:
+    rt = [config.risk[g] for g in GROUPS]
+    bt = [config.behaviour[g] for g in GROUPS]
+    return {
+        "d_high": np.array([r.high_distance for r in rt]),
+        "d_crit": np.array([r.critical_distance for r in rt]),
+        "t_high": np.array([r.high_ttc for r in rt]),
+        "t_crit": np.array([r.critical_ttc for r in rt]),
+        "still": np.array([b.still_speed for b in bt]),
+        "fast": np.array([b.fast_speed for b in bt]),
+        "cross": np.array([b.cross_speed for b in bt]),
+        "brake": np.array([b.brake_decel for b in bt]),
+        "turn": np.array([b.turn_rate for b in bt]),
+        "wrong": np.array([b.wrong_way_speed for b in bt]),
+    }
+
+
+def time_to_collision(rng: np.ndarray, range_rate: np.ndarray) -> np.ndarray:
+    """TTC (s): range / closing speed while closing, inf when opening; 0 at range <= 0."""
+    r = np.asarray(rng, dtype=np.float64)
+    closing = -np.asarray(range_rate, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ttc = np.where(closing > 1e-6, np.maximum(r, 0.0) / closing, np.inf)
+    return np.where(r <= 0.0, 0.0, ttc)
+
+
+def _ladder(value: np.ndarray, crit: np.ndarray, high: np.ndarray) -> np.ndarray:
+    lvl = np.full(value.shape, int(Risk.SAFE))
+    lvl = np.where(value < 4 * high, int(Risk.LOW), lvl)
+    lvl = np.where(value < 2 * high, int(Risk.MEDIUM), lvl)
+    lvl = np.where(value < high, int(Risk.HIGH), lvl)
+    return np.where(value < crit, int(Risk.CRITICAL), lvl)
+
+
+def in_path(
+    k: Kinematics, ttc: np.ndarray, config: IntentConfig, ego_speed: float, ego_yaw_rate: float
+) -> np.ndarray:
+    """Whether each object overlaps the ego corridor now or within the prediction window."""
+    r = np.asarray(k.range, dtype=np.float64)
+    curvature = ego_yaw_rate / max(ego_speed, 1.0)
+    centre = 0.5 * curvature * np.maximum(r, 0.0) ** 2
+    half = config.ego_half_width + config.corridor_margin + np.asarray(k.half_width)
+    d0 = np.asarray(k.lateral) - centre
+    window = np.minimum(config.horizon, ttc + config.arrival_slack)
+    d1 = d0 + np.asarray(k.lateral_rate) * window
+    crosses = np.sign(d0) != np.sign(d1)
+    closest = np.where(crosses, 0.0, np.minimum(np.abs(d0), np.abs(d1)))
+    return (closest < half) & (r > -1.0)
+
+
+def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = None) -> np.ndarray:
+    """Behaviour code (N,) per object from its ground motion (see ``Behaviour``)."""
+    th = thresholds or _threshold_table(config)
+    g = _GROUP_INDEX[np.clip(np.asarray(k.class_id, dtype=np.int64), 0, len(_GROUP_INDEX) - 1)]
+    vx, vy = np.asarray(k.ground_vx), np.asarray(k.ground_vy)
+    speed = np.hypot(vx, vy)
+    still, fast, cross_v = th["still"][g], th["fast"][g], th["cross"][g]
+    half = config.ego_half_width + config.corridor_margin + np.asarray(k.half_width)
+    y = np.asarray(k.lateral)
+    lateral_motion = (np.abs(vy) > cross_v) & (np.abs(vy) >= 0.5 * np.abs(vx))
+    toward_or_inside = (y * vy < 0) | (np.abs(y) < half)
+    crossing = lateral_motion & toward_or_inside
+    accel = np.nan_to_num(np.asarray(k.accel, dtype=np.float64), nan=0.0)
+    yaw = np.nan_to_num(np.asarray(k.yaw_rate, dtype=np.float64), nan=0.0)
+    moving = speed >= still
+
+    ped, ani = g == GROUPS.index("pedestrian"), g == GROUPS.index("animal")
+    wheeled = ~(ped | ani)
+    out = np.full(len(g), int(Behaviour.UNKNOWN))
+    # pedestrians
+    out = np.where(ped, np.where(~moving, Behaviour.STANDING, np.where(speed >= fast, Behaviour.RUNNING, Behaviour.WALKING)), out)
+    out = np.where(ped & moving & crossing, Behaviour.CROSSING, out)
+    # animals
+    out = np.where(ani, np.where(~moving, Behaviour.STATIONARY, np.where(speed >= fast, Behaviour.RUNNING, Behaviour.MOVING)), out)
+    out = np.where(ani & moving & crossing, Behaviour.ENTERING_ROAD, out)
+    # non-motorised and vehicles, lowest priority first
+    wb = np.where(~moving, Behaviour.STOPPED, np.where(speed > fast, Behaviour.SPEEDING, Behaviour.MOVING))
+    wb = np.where(moving & crossing, Behaviour.CROSSING, wb)
+    wb = np.where((vx < -th["wrong"][g]) & (-vx > np.abs(vy)), Behaviour.WRONG_WAY, wb)
+    wb = np.where((np.abs(yaw) > th["turn"][g]) & (speed > 2.0), Behaviour.SUDDEN_TURN, wb)
+    wb = np.where((accel < -th["brake"][g]) & (speed > 1.0), Behaviour.SUDDEN_BRAKE, wb)
+    return np.where(wheeled, wb, out).astype(np.int64)
+
+
+def assess(
+    k: Kinematics, config: IntentConfig, ego_speed: float = 0.0, ego_yaw_rate: float = 0.0
+) -> Assessment:
+    """TTC, in-path flag, risk, intent label and behaviour for every object."""
+    th = _threshold_table(config)
+    n = len(k)
+    if n == 0:
+        z = np.zeros(0, dtype=np.int64)
+        return Assessment(np.zeros(0), np.zeros(0, dtype=bool), z, z.copy(), z.copy())
+    g = _GROUP_INDEX[np.clip(np.asarray(k.class_id, dtype=np.int64), 0, len(_GROUP_INDEX) - 1)]
+    r = np.asarray(k.range, dtype=np.float64)
+    rr = np.asarray(k.range_rate, dtype=np.float64)
+    ttc = time_to_collision(r, rr)
+    path = in_path(k, ttc, config, ego_speed, ego_yaw_rate)
+    closing = rr < -config.range_rate_deadband
+    by_ttc = _ladder(ttc, th["t_crit"][g], th["t_high"][g])
+    by_dist = _ladder(np.where(r > 0, r, 0.0), th["d_crit"][g], th["d_high"][g])
+    by_dist = np.where(closing, by_dist, np.minimum(by_dist, int(Risk.MEDIUM)))
+    risk = np.maximum(by_ttc, by_dist)
+    risk = np.where(path, risk, np.minimum(risk, int(Risk.MEDIUM)))
+    risk = np.where(r < -1.0, int(Risk.SAFE), risk)
+
+    label = np.where(rr < -config.range_rate_deadband, Label.APPROACHING, Label.STABLE)
+    label = np.where(rr > config.range_rate_deadband, Label.RECEDING, label)
+    label = np.where(risk >= Risk.HIGH, Label.DANGER, label)
+    if k.age is not None:
+        label = np.where(np.asarray(k.age) < config.init_frames, Label.INITIALIZING, label)
+    return Assessment(
+        ttc=ttc,
+        in_path=path,
+        risk=risk.astype(np.int64),
+        label=label.astype(np.int64),
+        behaviour=behaviours(k, config, th),
+    )

@@ -1,0 +1,104 @@
+"""Small vectorised geometry helpers: 3D box corners and 2D box algebra.
+
+3D boxes are (center xyz, size lwh, yaw) in a right-handed z-up frame (m, rad);
+``size`` = (length along heading, width, height). 2D boxes are float xyxy pixels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Unit corners: bottom face 0-3 counter-clockwise from rear-right, top face 4-7 above them.
+_UNIT_CORNERS = np.array(
+    [
+        [-0.5, -0.5, -0.5],
+        [0.5, -0.5, -0.5],
+        [0.5, 0.5, -0.5],
+        [-0.5, 0.5, -0.5],
+        [-0.5, -0.5, 0.5],
+        [0.5, -0.5, 0.5],
+        [0.5, 0.5, 0.5],
+        [-0.5, 0.5, 0.5],
+    ]
+)
+
+
+def box_corners(center: np.ndarray, size: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Corners (N, 8, 3) of boxes with centers (N, 3), sizes (N, 3) and yaws (N,)."""
+    center = np.asarray(center, dtype=np.float64).reshape(-1, 3)
+    size = np.asarray(size, dtype=np.float64).reshape(-1, 3)
+    yaw = np.asarray(yaw, dtype=np.float64).reshape(-1)
+    local = _UNIT_CORNERS[None] * size[:, None, :]  # (N, 8, 3)
+    c, s = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+    x = c * local[..., 0] - s * local[..., 1]
+    y = s * local[..., 0] + c * local[..., 1]
+    return np.stack([x, y, local[..., 2]], axis=-1) + center[:, None, :]
+
+
+def box_area(boxes: np.ndarray) -> np.ndarray:
+    """Areas (N,) of xyxy boxes; 0 for degenerate boxes."""
+    b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
+    return np.clip(b[:, 2] - b[:, 0], 0, None) * np.clip(b[:, 3] - b[:, 1], 0, None)
+
+
+def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Pairwise IoU (N, M) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4)."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros((len(a), len(b)))
+    lt = np.maximum(a[:, None, :2], b[None, :, :2])
+    rb = np.minimum(a[:, None, 2:], b[None, :, 2:])
+    wh = np.clip(rb - lt, 0, None)
+    inter = wh[..., 0] * wh[..., 1]
+    union = box_area(a)[:, None] + box_area(b)[None, :] - inter
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(union > 0, inter / union, 0.0)
+
+
+def clip_boxes(boxes: np.ndarray, width: int, height: int) -> np.ndarray:
+    """xyxy boxes clipped to the image [0, width] x [0, height]."""
+    b = np.array(boxes, dtype=np.float64).reshape(-1, 4)
+    b[:, [0, 2]] = np.clip(b[:, [0, 2]], 0, width)
+    b[:, [1, 3]] = np.clip(b[:, [1, 3]], 0, height)
+    return b
+
+
+def mask_boxes(labels: np.ndarray, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tight xyxy boxes and pixel counts of each id in an integer label image.
+
+    Args:
+        labels: (H, W) integer image of object ids (anything else = background).
+        ids: (N,) ids to measure.
+
+    Returns:
+        boxes (N, 4) float xyxy (pixel (i, j) spans [i, i+1) x [j, j+1); NaN when
+        the id has no pixel) and counts (N,) int.
+    """
+    ids = np.asarray(ids).reshape(-1)
+    boxes = np.full((len(ids), 4), np.nan)
+    counts = np.zeros(len(ids), dtype=np.int64)
+    if len(ids) == 0:
+        return boxes, counts
+    lab = np.asarray(labels)
+    present = np.isin(lab, ids)
+    rows, cols = np.nonzero(present)
+    if len(rows) == 0:
+        return boxes, counts
+    vals = lab[rows, cols]
+    order = np.argsort(ids)
+    sorted_ids = ids[order]
+    idx = order[np.searchsorted(sorted_ids, vals)]
+    counts[:] = np.bincount(idx, minlength=len(ids))
+    has = counts > 0
+    inf = np.iinfo(np.int64).max
+    x0 = np.full(len(ids), inf)
+    y0 = np.full(len(ids), inf)
+    x1 = np.full(len(ids), -1)
+    y1 = np.full(len(ids), -1)
+    np.minimum.at(x0, idx, cols)
+    np.minimum.at(y0, idx, rows)
+    np.maximum.at(x1, idx, cols)
+    np.maximum.at(y1, idx, rows)
+    boxes[has] = np.stack([x0[has], y0[has], x1[has] + 1, y1[has] + 1], axis=1)
+    return boxes, counts

@@ -1,0 +1,59 @@
+"""Vectorised per-class non-maximum suppression (numpy)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def nms(
+    xyxy: np.ndarray,
+    score: np.ndarray,
+    class_id: np.ndarray | None = None,
+    iou_threshold: float = 0.45,
+    max_det: int = 300,
+) -> np.ndarray:
+    """Greedy per-class NMS; returns kept indices, highest score first.
+
+    A box is suppressed when its IoU with a higher-scoring kept box of the same
+    class is strictly greater than ``iou_threshold`` (torchvision convention).
+    Classes are separated with the offset trick: each class's boxes are shifted
+    by ``class_index * span`` so boxes of different classes never overlap. Ties in
+    score keep the lower index first (stable sort), so results are deterministic.
+
+    Args:
+        xyxy: (N, 4) boxes, float pixels.
+        score: (N,) scores.
+        class_id: (N,) integer classes; None = class-agnostic.
+        iou_threshold: IoU above which a lower-scoring box is dropped.
+        max_det: at most this many indices are returned.
+
+    Returns:
+        (K,) int64 indices into the inputs, K <= max_det.
+    """
+    boxes = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    scores = np.asarray(score, dtype=np.float64).reshape(-1)
+    n = len(boxes)
+    if n == 0 or max_det <= 0:
+        return np.zeros(0, dtype=np.int64)
+    if class_id is not None:
+        cls = np.asarray(class_id).reshape(-1)
+        _, dense = np.unique(cls, return_inverse=True)
+        lo = boxes.min()
+        span = boxes.max() - lo + 1.0
+        boxes = boxes - lo + (dense.astype(np.float64) * span)[:, None]
+    x0, y0, x1, y1 = boxes.T
+    area = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    order = np.argsort(-scores, kind="stable")
+    keep: list[int] = []
+    while order.size and len(keep) < max_det:
+        i = order[0]
+        keep.append(int(i))
+        rest = order[1:]
+        w = np.clip(np.minimum(x1[i], x1[rest]) - np.maximum(x0[i], x0[rest]), 0, None)
+        h = np.clip(np.minimum(y1[i], y1[rest]) - np.maximum(y0[i], y0[rest]), 0, None)
+        inter = w * h
+        union = area[i] + area[rest] - inter
+        with np.errstate(divide="ignore", invalid="ignore"):
+            iou = np.where(union > 0, inter / union, 0.0)
+        order = rest[iou <= iou_threshold]
+    return np.asarray(keep, dtype=np.int64)

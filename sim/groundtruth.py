@@ -1,0 +1,234 @@
+"""Exact ground truth per actor per camera frame.
+
+3D boxes come from each actor's shape at its current gait phase (tight), so
+the amodal 2D box is the projection of the 8 corners through the one camera
+model, clipped at the near plane. Visible boxes and visible fractions come from
+the renderer's segmentation: visible fraction = visible pixels / pixels of the
+actor's unoccluded silhouette (re-rendered alone when a nearer actor overlaps
+it). Without rendering they are estimated from box overlap (documented as an
+approximation). Labels, behaviour and risk come from ``intent.labels.assess``,
+the same code that labels predictions.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from intent.config import IntentConfig
+from intent.labels import Kinematics, assess
+from perception.camera import CameraModel, truncation
+from perception.detections import CLASS_ID
+from perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
+from sim.world import World, ego_frame
+
+GT_MAX_RANGE = 200.0  # m; actors farther than this (or > 10 m behind) are left out
+OBSTACLE_CLASS_ID = -1  # static obstacles are not a detection class
+
+
+@dataclass
+class GroundTruth:
+    """Struct of arrays over the actors near the ego in one camera frame (ego frame, SI)."""
+
+    actor_id: np.ndarray  # (N,) int
+    name: list[str]
+    cls: list[str]
+    subtype: list[str]
+    class_id: np.ndarray  # (N,) int, -1 for obstacles
+    box3d: np.ndarray  # (N, 7) x, y, z (centre), length, width, height, yaw (ego frame)
+    velocity: np.ndarray  # (N, 2) ground velocity in ego axes (m/s)
+    amodal: np.ndarray  # (N, 4) xyxy, projected 3D box, unclipped
+    visible: np.ndarray  # (N, 4) xyxy, tight box of visible pixels (NaN if none)
+    visible_fraction: np.ndarray  # (N,)
+    pixels: np.ndarray  # (N,) visible pixel count (render) or -1
+    truncation: np.ndarray  # (N,)
+    range: np.ndarray  # (N,) nearest point's x (m)
+    lateral: np.ndarray  # (N,) centre y (m)
+    range_rate: np.ndarray  # (N,)
+    lateral_rate: np.ndarray  # (N,)
+    accel: np.ndarray  # (N,)
+    yaw_rate: np.ndarray  # (N,)
+    ttc: np.ndarray  # (N,)
+    in_path: np.ndarray  # (N,) bool
+    label: np.ndarray  # (N,) intent.labels.Label
+    behaviour: np.ndarray  # (N,) intent.labels.Behaviour
+    risk: np.ndarray  # (N,) intent.labels.Risk
+
+    def __len__(self) -> int:
+        return len(self.actor_id)
+
+    def to_dict(self) -> dict:
+        def r(a: np.ndarray, nd: int) -> list:
+            return np.round(np.asarray(a, dtype=np.float64), nd).tolist()
+
+        return {
+            "actor_id": self.actor_id.tolist(),
+            "name": self.name,
+            "cls": self.cls,
+            "subtype": self.subtype,
+            "class_id": self.class_id.tolist(),
+            "box3d": r(self.box3d, 3),
+            "velocity": r(self.velocity, 3),
+            "amodal": r(self.amodal, 2),
+            "visible": r(self.visible, 2),
+            "visible_fraction": r(self.visible_fraction, 3),
+            "pixels": self.pixels.tolist(),
+            "truncation": r(self.truncation, 3),
+            "range": r(self.range, 3),
+            "lateral": r(self.lateral, 3),
+            "range_rate": r(self.range_rate, 3),
+            "lateral_rate": r(self.lateral_rate, 3),
+            "accel": r(self.accel, 3),
+            "yaw_rate": r(self.yaw_rate, 4),
+            "ttc": r(np.minimum(self.ttc, 1e9), 3),
+            "in_path": self.in_path.tolist(),
+            "label": self.label.tolist(),
+            "behaviour": self.behaviour.tolist(),
+            "risk": self.risk.tolist(),
+        }
+
+
+def occlusion_from_boxes(boxes: np.ndarray, depth: np.ndarray, width: int, height: int, grid: int = 12) -> np.ndarray:
+    """Approximate visible fraction (N,) from box overlap: share of each box's
+    in-image area not covered by the boxes of nearer objects (sampled on a grid)."""
+    n = len(boxes)
+    if n == 0:
+        return np.zeros(0)
+    b = clip_boxes(np.nan_to_num(boxes, nan=0.0), width, height)
+    g = (np.arange(grid) + 0.5) / grid
+    xs = b[:, 0:1] + g[None] * (b[:, 2:3] - b[:, 0:1])  # (N, G)
+    ys = b[:, 1:2] + g[None] * (b[:, 3:4] - b[:, 1:2])
+    px = np.broadcast_to(xs[:, None, :], (n, grid, grid))
+    py = np.broadcast_to(ys[:, :, None], (n, grid, grid))
+    nearer = depth[None, :] < depth[:, None]  # (N, M): M nearer than N
+    inside = (
+        (px[:, None] >= b[None, :, 0, None, None]) & (px[:, None] < b[None, :, 2, None, None])
+        & (py[:, None] >= b[None, :, 1, None, None]) & (py[:, None] < b[None, :, 3, None, None])
+    )  # (N, M, G, G)
+    covered = np.any(inside & nearer[:, :, None, None], axis=1)
+    frac = 1.0 - covered.mean(axis=(1, 2))
+    return np.where(box_area(b) > 0, frac, 0.0)
+
+
+def compute_ground_truth(
+    world: World,
+    camera: CameraModel,
+    config: IntentConfig,
+    seg: np.ndarray | None = None,
+    silhouettes=None,
+) -> GroundTruth:
+    """Ground truth for the world's current state.
+
+    Args:
+        seg: the renderer's segmentation (H, W) of actor ids, or None without rendering.
+        silhouettes: ``callable(ids) -> seg`` rendering only the given actors (for
+            visible fractions of occluded actors); required when ``seg`` is given.
+    """
+    st = world.agent_states()
+    ox, oy, oyaw = world.ego_pose()
+    origin = np.array([ox, oy])
+    rel = ego_frame(origin, oyaw, st.xy)
+    keep = (rel[:, 0] > -10.0) & (rel[:, 0] < GT_MAX_RANGE + 20.0)
+    idx = np.nonzero(keep)[0]
+    agents = [world.agents[i] for i in idx]
+    n = len(idx)
+    # Tight 3D boxes (local frame) at the current gait phase.
+    local = [a.identity.shape.local_box(float(st.gait_phase[i])) for a, i in zip(agents, idx, strict=True)]
+    lc = np.array([c for c, _ in local]).reshape(n, 3)
+    size = np.array([s for _, s in local]).reshape(n, 3)
+    ryaw = st.yaw[idx] - oyaw
+    c, s = np.cos(ryaw), np.sin(ryaw)
+    centre = np.column_stack([
+        rel[idx, 0] + c * lc[:, 0] - s * lc[:, 1],
+        rel[idx, 1] + s * lc[:, 0] + c * lc[:, 1],
+        lc[:, 2],
+    ])
+    corners = box_corners(centre, size, ryaw)
+    rng = corners[..., 0].min(axis=1) if n else np.zeros(0)
+    half_w = (corners[..., 1].max(axis=1) - corners[..., 1].min(axis=1)) / 2.0 if n else np.zeros(0)
+    ranged = rng < GT_MAX_RANGE
+    idx, agents = idx[ranged], [a for a, k in zip(agents, ranged, strict=True) if k]
+    centre, size, ryaw, corners, rng, half_w = centre[ranged], size[ranged], ryaw[ranged], corners[ranged], rng[ranged], half_w[ranged]
+    n = len(idx)
+
+    amodal = camera.project_boxes(corners)
+    trunc = truncation(amodal, camera.width, camera.height)
+    ids = st.ids[idx]
+
+    # Kinematics in the ego frame.
+    spd = st.speed[idx]
+    vg = np.column_stack([spd * np.cos(ryaw), spd * np.sin(ryaw)])
+    w = world.odometry.yaw_rate
+    rr = vg[:, 0] - world.ego.speed + w * centre[:, 1]
+    lr = vg[:, 1] - w * centre[:, 0]
+
+    cam_depth = camera.ego_to_camera(centre)[:, 2] if n else np.zeros(0)
+    if seg is not None:
+        visible, pixels = mask_boxes(seg, ids)
+        vis_frac = np.where(pixels > 0, 1.0, 0.0)
+        # Actors overlapped by a nearer actor's box get their silhouette rendered alone.
+        in_img = trunc < 1.0
+        ov = iou_matrix(np.nan_to_num(amodal), np.nan_to_num(amodal)) > 0
+        nearer = cam_depth[None, :] < cam_depth[:, None]
+        occluded = in_img & (pixels > 0) & np.any(ov & nearer & in_img[None, :], axis=1)
+        # Also actors whose visible box is clearly smaller than their in-image amodal box.
+        clipped = clip_boxes(np.nan_to_num(amodal), camera.width, camera.height)
+        shrunk = (pixels > 0) & (iou_matrix(np.nan_to_num(visible), clipped).diagonal() < 0.9) if n else np.zeros(0, bool)
+        todo = list(np.nonzero(occluded | shrunk)[0])
+        while todo and silhouettes is not None:
+            group: list[int] = []
+            for k in todo:  # greedy: a pass holds actors whose boxes don't overlap
+                if all(not ov[k, j] for j in group):
+                    group.append(k)
+            todo = [k for k in todo if k not in group]
+            sil = silhouettes([int(ids[k]) for k in group])
+            _, full = mask_boxes(sil, ids[group])
+            vis_frac[group] = np.clip(pixels[group] / np.maximum(full, 1), 0.0, 1.0)
+    else:
+        visible = clip_boxes(np.nan_to_num(amodal), camera.width, camera.height)
+        visible[trunc >= 1.0] = np.nan
+        pixels = np.full(n, -1, dtype=np.int64)
+        vis_frac = occlusion_from_boxes(amodal, cam_depth, camera.width, camera.height)
+        vis_frac[trunc >= 1.0] = 0.0
+
+    cls = [a.identity.cls for a in agents]
+    class_id = np.array([CLASS_ID.get(k, OBSTACLE_CLASS_ID) for k in cls], dtype=np.int64)
+    kin = Kinematics(
+        class_id=np.where(class_id < 0, CLASS_ID["car"], class_id),
+        range=rng,
+        lateral=centre[:, 1],
+        half_width=half_w,
+        range_rate=rr,
+        lateral_rate=lr,
+        ground_vx=vg[:, 0],
+        ground_vy=vg[:, 1],
+        accel=st.accel[idx],
+        yaw_rate=st.yaw_rate[idx],
+    )
+    a = assess(kin, config, ego_speed=float(world.ego.speed), ego_yaw_rate=w)
+    return GroundTruth(
+        actor_id=ids,
+        name=[ag.identity.name for ag in agents],
+        cls=cls,
+        subtype=[ag.identity.subtype for ag in agents],
+        class_id=class_id,
+        box3d=np.column_stack([centre, size, ryaw]) if n else np.zeros((0, 7)),
+        velocity=vg,
+        amodal=amodal,
+        visible=visible,
+        visible_fraction=vis_frac,
+        pixels=pixels,
+        truncation=trunc,
+        range=rng,
+        lateral=centre[:, 1],
+        range_rate=rr,
+        lateral_rate=lr,
+        accel=st.accel[idx],
+        yaw_rate=st.yaw_rate[idx],
+        ttc=a.ttc,
+        in_path=a.in_path,
+        label=a.label,
+        behaviour=a.behaviour,
+        risk=a.risk,
+    )

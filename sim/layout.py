@@ -1,0 +1,60 @@
+"""``RoadLayout``: what the renderer draws of the road, in the world frame.
+
+World frame: right-handed, z up, x along the main road, y to the left (m).
+Built by ``sim.road`` from the highway-env network; read by ``sim.renderer``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Marking:
+    """A painted line from ``start`` to ``end`` (world xy, m), ``width`` m wide.
+
+    ``dashed``: 3 m dashes every 9 m (a 3 m paint / 6 m gap pattern) when True,
+    continuous otherwise.
+    """
+
+    start: tuple[float, float]
+    end: tuple[float, float]
+    width: float = 0.15
+    dashed: bool = False
+
+
+@dataclass(frozen=True)
+class Rect:
+    """An axis-aligned rectangle in the world xy plane: x0 < x1, y0 < y1 (m)."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+
+@dataclass(frozen=True)
+class RoadLayout:
+    """Everything static the camera sees.
+
+    asphalt: driveable surface rectangles (z = 0).
+    sidewalks: raised pavement rectangles (top at ``kerb_height``).
+    markings: lane lines painted on the asphalt.
+    structure_zones: rectangles beyond the pavements where roadside structures
+        (buildings, poles, trees) may be placed, seeded by the scenario seed.
+    """
+
+    asphalt: tuple[Rect, ...]
+    sidewalks: tuple[Rect, ...] = ()
+    markings: tuple[Marking, ...] = ()
+    structure_zones: tuple[Rect, ...] = ()
+    kerb_height: float = 0.15
+    extra: dict = field(default_factory=dict)
+
+    def bounds(self) -> np.ndarray:
+        """[x0, y0, x1, y1] of everything in the layout (m)."""
+        rects = list(self.asphalt) + list(self.sidewalks) + list(self.structure_zones)
+        a = np.array([[r.x0, r.y0, r.x1, r.y1] for r in rects])
+        return np.array([a[:, 0].min(), a[:, 1].min(), a[:, 2].max(), a[:, 3].max()])

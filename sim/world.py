@@ -1,0 +1,223 @@
+"""The world: highway-env road and traffic, the ego, scripted actors, collisions.
+
+``World(scenario).step()`` advances one simulation tick of ``1 / rate``
+seconds. Nothing here renders; ``sim.renderer`` and ``sim.groundtruth`` read
+the state through ``agent_states`` and ``ego_pose``. World frame: x along
+the main road, y left, z up, headings CCW from +x (rad).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from highway_env.road.road import Road
+from highway_env.vehicle.behavior import IDMVehicle
+
+from perception.frame import EgoOdometry
+from sim.actors import Identity, ScriptedActor, wrap
+from sim.ego import Collision, EgoVehicle
+from sim.road import MAIN_FROM, MAIN_TO, build_road
+from sim.scenario import Scenario, TriggerSpec
+from sim.shapes import make_shape
+
+TRAFFIC_MIX = (("car", 0.8), ("truck", 0.1), ("bus", 0.1))
+
+
+@dataclass
+class AgentStates:
+    """Struct of arrays over all non-ego agents (world frame)."""
+
+    ids: np.ndarray  # (N,) int
+    xy: np.ndarray  # (N, 2) m, footprint centre
+    yaw: np.ndarray  # (N,) rad
+    speed: np.ndarray  # (N,) m/s
+    accel: np.ndarray  # (N,) m/s^2 along the heading, over the last tick
+    yaw_rate: np.ndarray  # (N,) rad/s over the last tick
+    gait_phase: np.ndarray  # (N,) rad
+    length: np.ndarray  # (N,) m, collision footprint
+    width: np.ndarray  # (N,) m
+
+
+def ego_frame(
+    origin: np.ndarray, yaw: float, xy: np.ndarray
+) -> np.ndarray:
+    """World xy (N, 2) -> ego-frame xy (N, 2) for an ego frame at ``origin`` with ``yaw``."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    d = np.asarray(xy, dtype=np.float64).reshape(-1, 2) - origin
+    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+
+def nearest_x_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """Half extent (m) along the ego x axis of footprints rotated by ``rel_yaw``."""
+    return 0.5 * (np.abs(np.cos(rel_yaw)) * length + np.abs(np.sin(rel_yaw)) * width)
+
+
+class World:
+    """A deterministic closed-loop world built from a ``Scenario``."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.dt = 1.0 / scenario.rate
+        self.t = 0.0
+        self.tick = 0
+        ego_spec = scenario.ego
+        cross_x = ego_spec.s + ego_spec.length / 2.0 + 60.0
+        self.network, self.geometry, self.layout = build_road(scenario.road, cross_x=cross_x)
+        self.road = Road(network=self.network, np_random=np.random.RandomState(scenario.seed))
+
+        lane_index = (MAIN_FROM, MAIN_TO, ego_spec.lane)
+        lane = self.network.get_lane(lane_index)
+        self.ego = EgoVehicle(self.road, lane.position(ego_spec.s, 0.0), 0.0, ego_spec, lane_index)
+        self.road.vehicles.append(self.ego)
+        front0 = np.array([ego_spec.s + ego_spec.length / 2.0, self.geometry.lane_y(ego_spec.lane)])
+        self._origin0 = front0
+
+        self.agents: list = []
+        self._add_traffic()
+        self._add_actors()
+        self.by_name = {a.identity.name: a for a in self.agents}
+        n = len(self.agents)
+        self._prev_speed = np.array([a.speed for a in self.agents], dtype=np.float64)
+        self._prev_yaw = np.array([-a.heading for a in self.agents], dtype=np.float64)
+        self._accel = np.zeros(n)
+        self._yaw_rate = np.zeros(n)
+        self._ego_prev = (float(self.ego.speed), -float(self.ego.heading))
+        self.odometry = EgoOdometry(speed=float(self.ego.speed))
+        self.collisions: list[Collision] = []
+        self._hit_ids: set[int] = set()
+
+    # ------------------------------------------------------------------ construction
+    def to_world(self, rel_xy: np.ndarray) -> np.ndarray:
+        """Ego-relative-at-t0 xy -> world xy (the ego starts heading along +x)."""
+        return self._origin0 + np.asarray(rel_xy, dtype=np.float64)
+
+    def _rng(self, *key: int) -> np.random.Generator:
+        return np.random.default_rng([self.scenario.seed, *key])
+
+    def _add_traffic(self) -> None:
+        spec = self.scenario.traffic
+        if spec.count == 0 or spec.density <= 0:
+            return
+        rng = self._rng(2)
+        names, probs = zip(*TRAFFIC_MIX, strict=True)
+        for i in range(spec.count):
+            speed = None if spec.speed is None else float(rng.uniform(*spec.speed))
+            cls = str(rng.choice(names, p=probs))
+            shape = make_shape(cls, "sedan" if cls == "car" else cls, self._rng(3, i))
+            v = IDMVehicle.create_random(
+                self.road, speed=speed, lane_from=MAIN_FROM, lane_to=MAIN_TO, spacing=1.0 / spec.density
+            )
+            v.LENGTH, v.WIDTH = shape.footprint
+            v.diagonal = float(np.hypot(v.LENGTH, v.WIDTH))
+            v.enable_lane_change = spec.lane_change
+            v.identity = Identity(1000 + i, f"traffic{i}", cls, shape.subtype, shape, scripted=False)
+            v.gait_phase = 0.0
+            self.road.vehicles.append(v)
+            self.agents.append(v)
+
+    def _add_actors(self) -> None:
+        for i, spec in enumerate(self.scenario.actors):
+            shape = make_shape(spec.type, spec.subtype, self._rng(1, i))
+            st = spec.start
+            if st.lane is not None:
+                pos = np.array([self._origin0[0] + st.s, self.geometry.lane_y(st.lane) + st.offset])
+            else:
+                pos = self.to_world(np.array([st.x, st.y]))
+            ident = Identity(i + 1, spec.id, spec.type, spec.subtype, shape)
+            a = ScriptedActor(self.road, ident, spec, pos, np.radians(spec.heading), self.to_world)
+            a.lane_y = self.geometry.lane_y
+            self.road.vehicles.append(a)
+            self.agents.append(a)
+
+    # ------------------------------------------------------------------ state
+    def ego_pose(self) -> tuple[float, float, float]:
+        """World (x, y, yaw) of the ego frame origin (front bumper centre, on the ground)."""
+        yaw = -float(self.ego.heading)
+        half = self.ego.LENGTH / 2.0
+        x = float(self.ego.position[0]) + half * np.cos(yaw)
+        y = -float(self.ego.position[1]) + half * np.sin(yaw)
+        return x, y, yaw
+
+    def agent_states(self) -> AgentStates:
+        a = self.agents
+        return AgentStates(
+            ids=np.array([v.identity.actor_id for v in a], dtype=np.int64),
+            xy=np.array([[v.position[0], -v.position[1]] for v in a], dtype=np.float64).reshape(-1, 2),
+            yaw=np.array([-v.heading for v in a], dtype=np.float64),
+            speed=np.array([v.speed for v in a], dtype=np.float64),
+            accel=self._accel.copy(),
+            yaw_rate=self._yaw_rate.copy(),
+            gait_phase=np.array([getattr(v, "gait_phase", 0.0) for v in a], dtype=np.float64),
+            length=np.array([v.LENGTH for v in a], dtype=np.float64),
+            width=np.array([v.WIDTH for v in a], dtype=np.float64),
+        )
+
+    def relative(self, agent) -> tuple[float, float, float, float]:
+        """(range, lateral, range_rate, lateral_rate) of one agent in the ego frame (footprint-based)."""
+        ox, oy, oyaw = self.ego_pose()
+        rel = ego_frame(np.array([ox, oy]), oyaw, np.array([[agent.position[0], -agent.position[1]]]))[0]
+        ryaw = -agent.heading - oyaw
+        rng = rel[0] - float(nearest_x_extent(np.array(ryaw), np.array(agent.LENGTH), np.array(agent.WIDTH)))
+        v = agent.speed * np.array([np.cos(ryaw), np.sin(ryaw)]) - np.array([self.ego.speed, 0.0])
+        w = self.odometry.yaw_rate
+        return float(rng), float(rel[1]), float(v[0] + w * rel[1]), float(v[1] - w * rel[0])
+
+    # ------------------------------------------------------------------ triggers
+    def trigger_holds(self, trig: TriggerSpec, actor) -> bool:
+        if trig.t is not None and self.t + 1e-9 < trig.t:
+            return False
+        if trig.ego_range_lt is not None or trig.ttc_lt is not None:
+            rng, _, rr, _ = self.relative(actor)
+            if trig.ego_range_lt is not None and not (0.0 <= rng < trig.ego_range_lt):
+                return False
+            if trig.ttc_lt is not None and not (rr < -1e-6 and max(rng, 0.0) / -rr < trig.ttc_lt):
+                return False
+        c = trig.actor
+        if c is not None:
+            other = self.by_name[c.id]
+            if c.speed_gt is not None and not other.speed > c.speed_gt:
+                return False
+            if c.speed_lt is not None and not other.speed < c.speed_lt:
+                return False
+            if c.moving is not None and (other.speed > 0.1) != c.moving:
+                return False
+            if c.range_lt is not None and not (0.0 <= self.relative(other)[0] < c.range_lt):
+                return False
+        return True
+
+    # ------------------------------------------------------------------ stepping
+    def step(self) -> list[Collision]:
+        """Advance one tick; returns the collisions of the ego that began in it."""
+        for a in self.agents:
+            if isinstance(a, ScriptedActor):
+                a.update_script(self.t, self.trigger_holds)
+        self.ego.t = self.t
+        self.road.act()
+        self.road.step(self.dt)
+        self.t = (self.tick + 1) * self.dt
+        self.tick += 1
+
+        speed = np.fromiter((a.speed for a in self.agents), dtype=np.float64, count=len(self.agents))
+        yaw = np.fromiter((-a.heading for a in self.agents), dtype=np.float64, count=len(self.agents))
+        self._accel = (speed - self._prev_speed) / self.dt
+        self._yaw_rate = ((yaw - self._prev_yaw + np.pi) % (2 * np.pi) - np.pi) / self.dt
+        self._prev_speed, self._prev_yaw = speed, yaw
+        es, eyaw = float(self.ego.speed), -float(self.ego.heading)
+        self.odometry = EgoOdometry(
+            speed=es, accel=(es - self._ego_prev[0]) / self.dt, yaw_rate=wrap(eyaw - self._ego_prev[1]) / self.dt
+        )
+        self._ego_prev = (es, eyaw)
+
+        new: list[Collision] = []
+        for other in self.ego.hits:
+            ident = other.identity
+            if ident.actor_id in self._hit_ids:
+                continue
+            self._hit_ids.add(ident.actor_id)
+            ryaw = -other.heading - eyaw
+            rel_v = es - other.speed * np.cos(ryaw)
+            new.append(Collision(self.t, self.tick, ident.actor_id, ident.name, ident.cls, es, float(rel_v)))
+        self.ego.hits.clear()
+        self.collisions.extend(new)
+        return new

@@ -1,0 +1,101 @@
+"""Labels, behaviours, in-path and risk against hand-computed cases."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from intent.config import IntentConfig
+from intent.labels import Behaviour, Kinematics, Label, Risk, assess, time_to_collision
+from perception.detections import CLASS_ID
+
+CFG = IntentConfig()
+
+
+def kin(cls="pedestrian", r=20.0, y=0.0, rr=-10.0, yr=0.0, vx=0.0, vy=0.0, accel=0.0, yaw_rate=0.0, hw=0.3, age=None):
+    a = lambda v: np.atleast_1d(np.asarray(v, dtype=np.float64))  # noqa: E731
+    return Kinematics(
+        class_id=np.array([CLASS_ID[cls]]), range=a(r), lateral=a(y), half_width=a(hw),
+        range_rate=a(rr), lateral_rate=a(yr), ground_vx=a(vx), ground_vy=a(vy),
+        accel=a(accel), yaw_rate=a(yaw_rate), age=None if age is None else np.array([age]),
+    )
+
+
+def test_ttc_is_range_over_closing_speed():
+    np.testing.assert_allclose(time_to_collision(np.array([20.0, 20.0, -1.0]), np.array([-10.0, 2.0, -1.0])), [2.0, np.inf, 0.0])
+
+
+def test_stationary_pedestrian_in_path_at_ttc_2s_is_high_and_danger():
+    a = assess(kin(r=20.0, rr=-10.0), CFG, ego_speed=10.0)
+    assert a.ttc[0] == pytest.approx(2.0)
+    assert a.in_path[0]
+    assert a.risk[0] == Risk.HIGH  # 1.5 s < TTC 2 s < 3 s
+    assert a.label[0] == Label.DANGER
+    assert a.behaviour[0] == Behaviour.STANDING
+
+
+def test_pedestrian_on_the_pavement_close_by_is_at_most_medium():
+    a = assess(kin(r=4.0, y=-4.0, rr=-10.0), CFG, ego_speed=10.0)
+    assert not a.in_path[0]
+    assert a.risk[0] == Risk.MEDIUM
+    assert a.label[0] == Label.APPROACHING
+
+
+def test_crossing_pedestrian_predicted_to_enter_the_corridor():
+    # 3 m to the right, walking left at 1.5 m/s; ego arrives in 2 s: enters after ~1 s.
+    a = assess(kin(r=20.0, y=-3.0, rr=-10.0, yr=1.5, vy=1.5), CFG, ego_speed=10.0)
+    assert a.in_path[0] and a.label[0] == Label.DANGER
+    assert a.behaviour[0] == Behaviour.CROSSING
+    # Walking away from the road: not in path, not crossing.
+    b = assess(kin(r=20.0, y=-3.0, rr=-10.0, yr=-1.5, vy=-1.5), CFG, ego_speed=10.0)
+    assert not b.in_path[0] and b.behaviour[0] == Behaviour.WALKING
+
+
+def test_labels_from_range_rate_with_deadband():
+    labels = [assess(kin("car", r=40.0, y=3.5, rr=v, hw=0.9), CFG).label[0] for v in (-3.0, 0.5, 3.0)]
+    assert labels == [Label.APPROACHING, Label.STABLE, Label.RECEDING]
+
+
+def test_young_tracks_are_initializing():
+    assert assess(kin(age=1), CFG).label[0] == Label.INITIALIZING
+    assert assess(kin(age=5), CFG).label[0] == Label.DANGER
+
+
+def test_steady_follower_close_behind_is_not_an_alarm():
+    # Same speed as the ego, 8 m ahead: distance alone caps at MEDIUM while not closing.
+    a = assess(kin("car", r=8.0, rr=0.0, vx=10.0, hw=0.9), CFG, ego_speed=10.0)
+    assert a.risk[0] == Risk.MEDIUM and a.label[0] == Label.STABLE
+
+
+def test_class_specific_thresholds():
+    # TTC 2.2 s: HIGH for a pedestrian (< 3 s) but MEDIUM for an animal (2.5 s < x < 5 s)? no: HIGH < 2.5.
+    ped = assess(kin("pedestrian", r=22.0, rr=-10.0), CFG, 10.0).risk[0]
+    ani = assess(kin("animal", r=27.0, rr=-10.0), CFG, 10.0).risk[0]  # 2.7 s > 2.5 s
+    bike = assess(kin("cyclist", r=18.0, rr=-10.0), CFG, 10.0).risk[0]  # 1.8 s < 2 s
+    assert (ped, ani, bike) == (Risk.HIGH, Risk.MEDIUM, Risk.CRITICAL)
+
+
+@pytest.mark.parametrize(
+    ("cls", "kw", "expected"),
+    [
+        ("pedestrian", {"vx": 3.0}, Behaviour.RUNNING),
+        ("pedestrian", {"vx": 1.2}, Behaviour.WALKING),
+        ("cyclist", {"vx": 8.0}, Behaviour.SPEEDING),
+        ("cyclist", {"vx": 5.0, "accel": -4.0}, Behaviour.SUDDEN_BRAKE),
+        ("car", {"vx": 10.0, "yaw_rate": 0.5}, Behaviour.SUDDEN_TURN),
+        ("motorcyclist", {"vx": -5.0, "y": -1.5}, Behaviour.WRONG_WAY),
+        ("car", {"vx": 0.0}, Behaviour.STOPPED),
+        ("animal", {"vx": 0.0}, Behaviour.STATIONARY),
+        ("animal", {"vx": 5.0}, Behaviour.RUNNING),
+        ("animal", {"y": -5.0, "vy": 1.0}, Behaviour.ENTERING_ROAD),
+    ],
+)
+def test_behaviours(cls, kw, expected):
+    args = {"r": 30.0, "y": kw.pop("y", 3.0), "rr": -5.0, **kw}
+    assert assess(kin(cls, **args), CFG, 10.0).behaviour[0] == expected
+
+
+def test_overrides_merge_into_the_config():
+    cfg = CFG.with_overrides({"risk": {"pedestrian": {"high_ttc": 4.0}}, "horizon": 2.0})
+    assert cfg.risk["pedestrian"].high_ttc == 4.0 and cfg.risk["pedestrian"].critical_ttc == 1.5
+    assert cfg.horizon == 2.0

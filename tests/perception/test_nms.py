@@ -1,0 +1,60 @@
+"""Per-class NMS against a plain greedy reference."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from perception.geometry import iou_matrix
+from perception.nms import nms
+
+
+def _reference(xyxy, score, cls, thr, max_det):
+    order = sorted(range(len(score)), key=lambda i: (-score[i], i))
+    iou = iou_matrix(xyxy, xyxy)
+    keep: list[int] = []
+    for i in order:
+        if all(cls[i] != cls[k] or iou[i, k] <= thr for k in keep):
+            keep.append(i)
+    return keep[:max_det]
+
+
+def _clustered(rng: np.random.Generator, n: int) -> np.ndarray:
+    centres = rng.uniform(0, 600, (8, 2))
+    c = centres[rng.integers(0, 8, n)] + rng.normal(0, 6, (n, 2))
+    wh = rng.uniform(20, 80, (n, 2))
+    return np.concatenate([c - wh / 2, c + wh / 2], axis=1)
+
+
+@pytest.mark.parametrize("seed", range(5))
+@pytest.mark.parametrize("thr", [0.3, 0.5, 0.7])
+def test_matches_greedy_reference(seed: int, thr: float) -> None:
+    rng = np.random.default_rng(seed)
+    n = 150
+    xyxy, score, cls = _clustered(rng, n), rng.random(n), rng.integers(0, 3, n)
+    got = nms(xyxy, score, cls, thr, 300)
+    assert got.dtype == np.int64
+    assert got.tolist() == _reference(xyxy, score, cls, thr, 300)
+
+
+def test_other_class_overlap_kept_and_agnostic_mode() -> None:
+    xyxy = np.array([[0, 0, 10, 10], [0, 0, 10, 10], [1, 0, 11, 10]], dtype=float)
+    score = np.array([0.9, 0.8, 0.7])
+    cls = np.array([0, 1, 0])
+    assert nms(xyxy, score, cls, 0.5, 10).tolist() == [0, 1]
+    assert nms(xyxy, score, None, 0.5, 10).tolist() == [0]
+
+
+def test_threshold_is_strict_and_max_det() -> None:
+    xyxy = np.array([[0, 0, 10, 10], [5, 0, 15, 10]], dtype=float)  # IoU = 50/150 = 1/3
+    score = np.array([0.9, 0.8])
+    assert nms(xyxy, score, np.zeros(2), 1 / 3, 10).tolist() == [0, 1]
+    assert nms(xyxy, score, np.zeros(2), 0.33, 10).tolist() == [0]
+    boxes = np.arange(10)[:, None] * [100.0, 0.0, 100.0, 0.0] + [0.0, 0.0, 50.0, 50.0]
+    assert nms(boxes, np.linspace(0.1, 1, 10), None, 0.5, 3).tolist() == [9, 8, 7]
+
+
+def test_empty_and_ties() -> None:
+    assert nms(np.zeros((0, 4)), np.zeros(0), np.zeros(0), 0.5, 10).shape == (0,)
+    xyxy = np.array([[0, 0, 10, 10]] * 3, dtype=float)
+    assert nms(xyxy, np.full(3, 0.5), np.zeros(3), 0.5, 10).tolist() == [0]

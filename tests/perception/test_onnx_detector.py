@@ -1,0 +1,244 @@
+"""OnnxDetector on real tiny ONNX models whose raw output is a known constant."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import onnx
+import pytest
+from onnx import TensorProto, helper, numpy_helper
+
+from perception.detections import CLASS_ID
+from perception.detectors import Detector, ModelError, OnnxDetector
+from perception.letterbox import letterbox, letterbox_boxes
+
+S = 416  # model input side: scale 0.65, pad_y 91 px for a 360 x 640 image
+IMAGE = np.zeros((360, 640, 3), dtype=np.uint8)
+META_NAMES = "{0: 'car', 1: 'pedestrian', 2: 'traffic light', 3: 'bus'}"
+
+# (xyxy in original pixels, model class index, score)
+CANDIDATES = [
+    ((100, 50, 200, 150), 0, 0.9),  # A car: kept
+    ((104, 52, 204, 152), 0, 0.8),  # B car, IoU ~0.9 with A: suppressed
+    ((110, 60, 190, 150), 1, 0.7),  # C pedestrian over A: other class, kept
+    ((400, 200, 500, 300), 0, 0.1),  # D below conf_threshold
+    ((300, 100, 320, 140), 2, 0.95),  # E traffic light: unknown to us
+    ((500, 250, 630, 340), 3, 0.6),  # F bus: kept
+    ((600, 300, 660, 380), 0, 0.5),  # G car beyond the image edge: clipped
+]
+N_ANCHORS = 20
+NC = 4
+
+
+def _lb_rows() -> np.ndarray:
+    """(N_ANCHORS, 4 + NC) rows cx, cy, w, h, class scores in letterboxed pixels."""
+    _, scale, pad = letterbox(IMAGE, S)
+    rows = np.zeros((N_ANCHORS, 4 + NC), dtype=np.float32)
+    for i, (box, cls, score) in enumerate(CANDIDATES):
+        x0, y0, x1, y1 = letterbox_boxes(np.array(box, dtype=float), scale, pad)[0]
+        rows[i, :4] = [(x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0]
+        rows[i, 4 + cls] = score
+    return rows
+
+
+def v8_output() -> np.ndarray:
+    return _lb_rows().T[None].copy()  # [1, 4+C, N]
+
+
+def v5_output() -> np.ndarray:
+    rows = _lb_rows()
+    obj = rows[:, 4:].max(axis=1, keepdims=True)
+    cls = np.where(rows[:, 4:] > 0, 1.0, 0.0).astype(np.float32)
+    obj[::2] = np.sqrt(obj[::2])  # every other row: score = obj * cls with both < 1
+    cls[::2] *= obj[::2]
+    return np.concatenate([rows[:, :4], obj, cls], axis=1)[None].copy()  # [1, N, 5+C]
+
+
+def make_model(
+    path: Path,
+    output: np.ndarray,
+    names: str | None = META_NAMES,
+    input_shape: list[int | str] | None = None,
+    dynamic_output: bool = False,
+) -> Path:
+    """Save an ONNX model whose output is ``output`` whatever ``images`` holds.
+
+    ``dynamic_output``: the output is ``Reshape(flat constant, shape + 0 * max(images))``,
+    so its shape is unknown until run time (onnxruntime reports ["b", "f", "n"]).
+    """
+    if dynamic_output:
+        const = [
+            ("flat", output.reshape(-1)),
+            ("shape", np.array(output.shape, np.float32)),
+            ("zero", np.array(0, np.float32)),
+        ]
+        nodes = [
+            helper.make_node("Constant", [], [n], value=numpy_helper.from_array(v, n))
+            for n, v in const
+        ]
+        nodes += [
+            helper.make_node("ReduceMax", ["images"], ["peak"], keepdims=0),
+            helper.make_node("Mul", ["peak", "zero"], ["nil"]),
+            helper.make_node("Add", ["shape", "nil"], ["shape_f"]),
+            helper.make_node("Cast", ["shape_f"], ["shape_i"], to=TensorProto.INT64),
+            helper.make_node("Reshape", ["flat", "shape_i"], ["output0"]),
+        ]
+        out_shape: list[int | str] = ["b", "f", "n"]
+    else:
+        nodes = [
+            helper.make_node(
+                "Constant", [], ["output0"], value=numpy_helper.from_array(output, "c")
+            )
+        ]
+        out_shape = list(output.shape)
+    graph = helper.make_graph(
+        nodes,
+        "const",
+        [helper.make_tensor_value_info("images", TensorProto.FLOAT, input_shape or [1, 3, S, S])],
+        [helper.make_tensor_value_info("output0", TensorProto.FLOAT, out_shape)],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 9
+    if names is not None:
+        helper.set_model_props(model, {"names": names})
+    onnx.checker.check_model(model)
+    onnx.save(model, path)
+    return path
+
+
+EXPECTED_XYXY = np.array(
+    [[100, 50, 200, 150], [110, 60, 190, 150], [500, 250, 630, 340], [600, 300, 640, 360]]
+)
+EXPECTED_SCORE = np.array([0.9, 0.7, 0.6, 0.5])
+
+
+@pytest.mark.parametrize(("make_output", "layout"), [(v8_output, "v8"), (v5_output, "v5")])
+def test_decode_letterbox_nms_and_class_mapping(tmp_path: Path, make_output, layout: str) -> None:
+    det = OnnxDetector(make_model(tmp_path / "m.onnx", make_output()))
+    assert isinstance(det, Detector)
+    assert det.layout == layout and det.num_classes == NC and det.input_hw == (S, S)
+    assert det.names == ["car", "pedestrian", "traffic light", "bus"]
+    assert "CPUExecutionProvider" in det.session.get_providers()
+    dets = det.detect(IMAGE)
+    np.testing.assert_allclose(dets.xyxy, EXPECTED_XYXY, atol=1e-3)
+    np.testing.assert_allclose(dets.score, EXPECTED_SCORE, atol=1e-6)
+    assert dets.class_id.tolist() == [
+        CLASS_ID["car"],
+        CLASS_ID["pedestrian"],
+        CLASS_ID["bus"],
+        CLASS_ID["car"],
+    ]
+    assert det.dropped_unknown == 1  # the traffic light
+    assert set(det.last_timing_ms) == {"preprocess", "infer", "postprocess"}
+
+
+def test_split_pipeline_matches_detect(tmp_path: Path) -> None:
+    det = OnnxDetector(make_model(tmp_path / "m.onnx", v8_output()))
+    img = IMAGE.copy()
+    img[..., 0] = 255
+    tensor, scale, pad = det.preprocess(img)
+    assert tensor.shape == (1, 3, S, S) and tensor.dtype == np.float32
+    assert scale == pytest.approx(0.65) and pad == (0.0, 91.0)
+    assert tensor[0, 0, 200, 200] == 1.0 and tensor[0, 1, 200, 200] == 0.0  # RGB order kept
+    assert tensor[0, 1, 0, 0] == pytest.approx(114 / 255)  # grey padding
+    raw = det.infer(tensor)
+    np.testing.assert_array_equal(raw, v8_output())
+    dets = det.postprocess(raw, scale, pad, img.shape[:2])
+    np.testing.assert_allclose(dets.xyxy, det.detect(img).xyxy)
+
+
+def test_unknown_names_keep_raw_indices(tmp_path: Path) -> None:
+    path = make_model(tmp_path / "m.onnx", v8_output(), names="{0: 'a', 1: 'b', 2: 'c', 3: 'd'}")
+    dets = OnnxDetector(path).detect(IMAGE)
+    assert dets.class_id.tolist() == [2, 0, 1, 3, 0]  # E (0.95) now kept; B still suppressed
+    np.testing.assert_allclose(dets.score, [0.95, 0.9, 0.7, 0.6, 0.5], atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["list", "txt", "yaml", "json", "sidecar", "none"])
+def test_names_sources(tmp_path: Path, kind: str) -> None:
+    path = make_model(tmp_path / "m.onnx", v5_output(), names=None)
+    ours = ["car", "pedestrian", "traffic light", "bus"]
+    names: object = None
+    if kind == "list":
+        names = ours
+    elif kind == "txt":
+        names = tmp_path / "classes.txt"
+        names.write_text("\n".join(ours) + "\n")
+    elif kind == "yaml":
+        names = tmp_path / "data.yaml"
+        names.write_text("names:\n  0: car\n  1: pedestrian\n  2: traffic light\n  3: bus\n")
+    elif kind == "json":
+        names = tmp_path / "names.json"
+        names.write_text('["car", "pedestrian", "traffic light", "bus"]')
+    elif kind == "sidecar":
+        (tmp_path / "m.names").write_text("\n".join(ours))
+    det = OnnxDetector(path, names=names)
+    dets = det.detect(IMAGE)
+    if kind == "none":  # class count from the shape, raw indices
+        assert det.names is None and det.num_classes == NC
+        assert dets.class_id.tolist() == [2, 0, 1, 3, 0]
+    else:
+        assert det.names == ours
+        assert dets.class_id.tolist() == [4, 0, 6, 4]
+
+
+def test_coco_aliases_map_to_our_classes(tmp_path: Path) -> None:
+    path = make_model(
+        tmp_path / "m.onnx", v8_output(), names="{0: 'person', 1: 'bicycle', 2: 'dog', 3: 'kite'}"
+    )
+    det = OnnxDetector(path)
+    assert det.class_map.tolist() == [0, 1, 7, -1]
+
+
+def test_dynamic_input_uses_input_size(tmp_path: Path) -> None:
+    path = make_model(tmp_path / "m.onnx", v8_output(), input_shape=["batch", 3, "height", "width"])
+    det = OnnxDetector(path, input_size=S)
+    assert det.input_hw == (S, S)
+    np.testing.assert_allclose(det.detect(IMAGE).xyxy, EXPECTED_XYXY, atol=1e-3)
+    assert OnnxDetector(path).input_hw == (640, 640)
+
+
+def test_dynamic_output_resolved_at_run_time(tmp_path: Path) -> None:
+    path = make_model(tmp_path / "m.onnx", v8_output(), dynamic_output=True)
+    det = OnnxDetector(path)
+    assert det.layout is None
+    np.testing.assert_allclose(det.detect(IMAGE).xyxy, EXPECTED_XYXY, atol=1e-3)
+    assert det.layout == "v8"
+    bad = OnnxDetector(
+        make_model(tmp_path / "bad.onnx", np.zeros((1, 10, 100), np.float32), dynamic_output=True)
+    )
+    with pytest.raises(ModelError, match=r"bad\.onnx: output shape \[1, 10, 100\] is neither"):
+        bad.detect(IMAGE)
+
+
+def _error(path: Path, **kwargs) -> str:
+    with pytest.raises(ModelError) as info:
+        OnnxDetector(path, **kwargs)
+    msg = str(info.value)
+    assert isinstance(info.value, ValueError)
+    assert str(path) in msg and "\n" not in msg
+    return msg
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    assert "not found" in _error(tmp_path / "nope.onnx")
+
+
+def test_garbage_file(tmp_path: Path) -> None:
+    path = tmp_path / "garbage.onnx"
+    path.write_bytes(b"\x00\x01not a model\xff" * 10)
+    assert "not a loadable ONNX model" in _error(path)
+
+
+def test_output_shape_fits_no_layout(tmp_path: Path) -> None:
+    msg = _error(make_model(tmp_path / "flat.onnx", np.zeros((1, 7), np.float32)))
+    assert "output shape [1, 7] is neither [1, N, 5+C] nor [1, 4+C, N]" in msg
+    msg = _error(make_model(tmp_path / "c.onnx", np.zeros((1, 10, 100), np.float32)))
+    assert "[1, 10, 100]" in msg and "C=4" in msg
+
+
+def test_image_required(tmp_path: Path) -> None:
+    det = OnnxDetector(make_model(tmp_path / "m.onnx", v8_output()))
+    with pytest.raises(ValueError, match="needs an image"):
+        det.detect(None)

@@ -1,0 +1,83 @@
+"""The command line: run directories, determinism, and one-line errors for bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from tools.cli import app
+
+ROOT = Path(__file__).resolve().parents[2]
+PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
+runner = CliRunner()
+
+
+def test_run_writes_the_run_directory(tmp_path):
+    res = runner.invoke(app, ["run", str(PED), "--out", str(tmp_path / "r"), "--no-render"])
+    assert res.exit_code == 0, res.output
+    run = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert run["complete"] and run["seed"] == 7 and len(run["config_hash"]) == 16
+    assert run["summary"]["collisions"][0]["name"] == "ped1"  # no AEB: it hits the pedestrian
+    lines = (tmp_path / "r" / "ticks.jsonl").read_text().splitlines()
+    assert len(lines) == run["summary"]["frames"] > 30
+    rec = json.loads(lines[10])
+    assert set(rec) >= {"tick", "t", "ego", "ground_truth", "detections"}
+    assert rec["ground_truth"]["name"] == ["ped1"]
+    timings = (tmp_path / "r" / "timings.jsonl").read_text().splitlines()
+    assert len(timings) == len(lines) and "tick" in json.loads(timings[0])
+
+
+def test_same_scenario_and_seed_give_identical_ticks_without_rendering(tmp_path):
+    for name in ("a", "b"):
+        assert runner.invoke(app, ["run", str(PED), "--out", str(tmp_path / name), "--no-render"]).exit_code == 0
+    assert (tmp_path / "a" / "ticks.jsonl").read_bytes() == (tmp_path / "b" / "ticks.jsonl").read_bytes()
+
+
+def bad_cases(tmp_path: Path) -> list[tuple[list[str], str]]:
+    malformed = tmp_path / "malformed.yaml"
+    malformed.write_text("name: x\nego: {lane: 1\n")
+    alien = tmp_path / "alien.yaml"
+    alien.write_text("name: x\nactors:\n  - id: a\n    type: alien\n    start: {x: 1, y: 1}\n")
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text("name: x\nduration: -3\n")
+    return [
+        (["run", str(malformed), "--out", str(tmp_path / "o1")], "malformed.yaml:"),
+        (["run", str(alien), "--out", str(tmp_path / "o2")], "actors[0].type"),
+        (["run", str(wrong), "--out", str(tmp_path / "o3")], "duration"),
+        (["run", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "o4")], "no such scenario file"),
+    ]
+
+
+def test_bad_input_exits_2_with_one_line_and_no_traceback(tmp_path):
+    for args, needle in bad_cases(tmp_path):
+        res = runner.invoke(app, args)
+        assert res.exit_code == 2, (args, res.output)
+        out = res.output.strip()
+        assert needle in out and "Traceback" not in out
+        assert len(out.splitlines()) == 1, out
+
+
+def test_unwritable_output_is_a_clear_error(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("keep me")
+    res = runner.invoke(app, ["run", str(PED), "--out", str(blocker / "sub"), "--no-render"])
+    assert res.exit_code == 2 and "cannot write" in res.output
+    assert blocker.read_text() == "keep me"
+
+
+@pytest.mark.skipif(not (Path(sys.executable).parent / "lookahead").exists(), reason="console script not installed")
+def test_console_script_reports_bad_yaml_on_one_line(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: [unclosed\n")
+    exe = Path(sys.executable).parent / "lookahead"
+    env = {**os.environ, "COLUMNS": "200"}
+    p = subprocess.run([str(exe), "run", str(bad), "--out", str(tmp_path / "o")], capture_output=True, text=True, env=env)
+    assert p.returncode == 2
+    assert "Traceback" not in p.stderr and p.stderr.strip().count("\n") == 0
+    assert "bad.yaml:" in p.stderr

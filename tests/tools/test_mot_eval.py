@@ -1,0 +1,164 @@
+"""MOT metrics on hand-computed tiny cases, the MOT tracking run and the CLI bodies."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from perception.mot import MotRecords, read_mot, write_mot
+from tools.mot_cli import eval_mot_command, track_command
+from tools.mot_eval import evaluate_mot, run_tracker_on_mot
+
+
+def rows(*r: tuple) -> np.ndarray:
+    """(frame, id, x, y, w, h[, conf, c8, c9]) tuples -> (N, 6..9) array."""
+    return np.array(r, dtype=float)
+
+
+def two_objects(frames: int = 5) -> np.ndarray:
+    return rows(
+        *[(f, 1, 0, 0, 10, 10) for f in range(1, frames + 1)],
+        *[(f, 2, 100, 0, 10, 10) for f in range(1, frames + 1)],
+    )
+
+
+def test_perfect_tracking() -> None:
+    gt = two_objects()
+    trk = gt.copy()
+    trk[:, 1] += 10  # ids need not be equal, only consistent
+    m = evaluate_mot(gt, trk)
+    assert m["mota"] == 1.0 and m["idf1"] == 1.0 and m["motp"] == 1.0
+    assert m["hota"] == pytest.approx(1.0)
+    assert (m["fp"], m["fn"], m["id_switches"], m["fragmentations"]) == (0, 0, 0, 0)
+    assert (m["mostly_tracked"], m["mostly_lost"]) == (2, 0)
+    assert (m["num_gt_ids"], m["num_tracker_ids"], m["num_frames"]) == (2, 2, 5)
+
+
+def test_one_id_switch() -> None:
+    gt = rows(*[(f, 1, 0, 0, 10, 10) for f in range(1, 5)])
+    trk = gt.copy()
+    trk[2:, 1] = 2  # frames 3-4 carry a new id
+    m = evaluate_mot(gt, trk)
+    assert m["id_switches"] == 1
+    assert m["mota"] == pytest.approx((4 - 0 - 1) / 4)
+    # Best id mapping keeps 2 of 4 frames: IDTP 2, IDFP 2, IDFN 2.
+    assert m["idf1"] == pytest.approx(2 * 2 / (2 * 2 + 2 + 2))
+    # DetA 1, AssA = (2 * 0.5 + 2 * 0.5) / 4 = 0.5.
+    assert m["hota"] == pytest.approx(np.sqrt(0.5))
+
+
+def test_known_fp_fn_counts() -> None:
+    gt = two_objects()
+    keep = ~((gt[:, 1] == 2) & np.isin(gt[:, 0], [2, 3]))  # object 2 missed in frames 2-3
+    fps = rows(*[(f, 90 + f, 500, 500, 10, 10) for f in (1, 2, 3)])
+    trk = np.concatenate([gt[keep], fps])
+    m = evaluate_mot(gt, trk)
+    assert (m["tp"], m["fn"], m["fp"], m["id_switches"]) == (8, 2, 3, 0)
+    assert m["mota"] == pytest.approx((8 - 3 - 0) / 10)
+    assert m["fragmentations"] == 1
+    assert (m["mostly_tracked"], m["partially_tracked"], m["mostly_lost"]) == (1, 1, 0)
+    assert m["precision"] == pytest.approx(8 / 11) and m["recall"] == pytest.approx(0.8)
+
+
+def test_iou_threshold_and_motp() -> None:
+    gt = rows((1, 1, 0, 0, 10, 10), (1, 2, 100, 0, 10, 10))
+    trk = rows((1, 1, 2.5, 0, 10, 10), (1, 2, 105, 0, 10, 10))  # IoU 0.6 and 1/3
+    m = evaluate_mot(gt, trk)
+    assert (m["tp"], m["fp"], m["fn"]) == (1, 1, 1)
+    assert m["motp"] == pytest.approx(0.6)
+    assert m["mota"] == pytest.approx((1 - 1) / 2)
+
+
+def test_mot16_gt_distractors_and_zero_marked() -> None:
+    # frame, id, x, y, w, h, consider, class, visibility
+    gt = rows(
+        (1, 1, 0, 0, 10, 10, 1, 1, 1.0),  # pedestrian
+        (1, 2, 100, 0, 10, 10, 0, 8, 1.0),  # distractor: matching output is removed
+        (1, 3, 200, 0, 10, 10, 0, 3, 1.0),  # car: ignored GT, matching output stays FP
+        (1, 4, 300, 0, 10, 10, 0, 1, 0.1),  # zero-marked pedestrian: ignored
+    )
+    trk = rows(
+        (1, 1, 0, 0, 10, 10), (1, 2, 100, 0, 10, 10), (1, 3, 200, 0, 10, 10), (1, 4, 300, 0, 10, 10)
+    )
+    m = evaluate_mot(gt, trk)
+    assert (m["tp"], m["fp"], m["fn"], m["num_gt_dets"]) == (1, 2, 0, 1)
+    plain = evaluate_mot(gt, trk, mot16_preprocess=False)
+    assert (plain["tp"], plain["fp"]) == (1, 3)
+
+
+def test_empty_inputs() -> None:
+    gt = two_objects(3)
+    m = evaluate_mot(gt, np.zeros((0, 6)))
+    assert (m["fn"], m["fp"], m["mota"], m["mostly_lost"]) == (6, 0, 0.0, 2)
+    m = evaluate_mot(np.zeros((0, 6)), gt)
+    assert (m["fp"], m["fn"]) == (6, 0)
+
+
+def test_duplicate_ids_in_a_frame_raise() -> None:
+    gt = two_objects(2)
+    trk = gt.copy()
+    trk[:, 1] = 1
+    with pytest.raises(ValueError, match="duplicate ids in frame 1"):
+        evaluate_mot(gt, trk)
+
+
+def _linear_scene(tmp_path: Path, frames: int = 10) -> tuple[Path, Path]:
+    gt_rows, det_rows = [], []
+    for f in range(1, frames + 1):
+        for k, (x0, vx) in enumerate(((100.0, 5.0), (600.0, -4.0)), start=1):
+            box = (x0 + vx * f, 200.0, 40.0, 90.0)
+            gt_rows.append((f, k, *box, 1, -1, -1, -1))
+            det_rows.append((f, -1, *box, 0.9, -1, -1, -1))
+    gt_path, det_path = tmp_path / "gt.txt", tmp_path / "det.txt"
+    write_mot(gt_path, MotRecords.from_array(np.array(gt_rows)))
+    write_mot(det_path, MotRecords.from_array(np.array(det_rows)))
+    return gt_path, det_path
+
+
+def test_run_tracker_on_mot_files(tmp_path: Path) -> None:
+    gt_path, det_path = _linear_scene(tmp_path)
+    out = tmp_path / "out" / "tracks.txt"
+    summary = run_tracker_on_mot(det_path, out, frame_rate=10.0)
+    assert summary["frames"] == 10 and summary["tracks"] == 2 and summary["dropped_detections"] == 0
+    assert len(read_mot(out)) == summary["track_rows"] == 16
+    m = evaluate_mot(gt_path, out)
+    # Two frames of confirmation delay per object are the only misses.
+    assert (m["fn"], m["fp"], m["id_switches"]) == (4, 0, 0)
+    assert m["mota"] == pytest.approx(1 - 4 / 20)
+    assert m["idf1"] == pytest.approx(2 * 16 / (2 * 16 + 4))
+
+
+def test_cli_commands_success(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    gt_path, det_path = _linear_scene(tmp_path)
+    out = tmp_path / "tracks.txt"
+    assert track_command(det_path, out, 10.0) == 0
+    assert "2 tracks" in capsys.readouterr().out
+    assert eval_mot_command(gt_path, out, "json") == 0
+    metrics = json.loads(capsys.readouterr().out)
+    assert metrics["mota"] == pytest.approx(0.8)
+    assert eval_mot_command(gt_path, out, "table") == 0
+    assert "MOTA" in capsys.readouterr().out
+
+
+def test_cli_bad_input_exit_code_2_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1,1,0,0,10,10\n1,1,zero,0,10,10\n")
+    missing = tmp_path / "missing.txt"
+    cases = [
+        (lambda: track_command(missing, tmp_path / "o.txt", 10.0), "missing.txt"),
+        (lambda: track_command(bad, tmp_path / "o.txt", 10.0), f"{bad}:2"),
+        (lambda: track_command(bad, tmp_path / "o.txt", 0.0), "frame-rate"),
+        (lambda: eval_mot_command(missing, bad, "table"), "missing.txt"),
+        (lambda: eval_mot_command(bad, bad, "json"), f"{bad}:2"),
+        (lambda: eval_mot_command(bad, bad, "xml"), "--format"),
+    ]
+    for call, needle in cases:
+        assert call() == 2
+        err = capsys.readouterr().err
+        assert err.startswith("error: ") and needle in err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err

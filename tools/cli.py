@@ -1,0 +1,217 @@
+"""The ``lookahead`` command line (typer + rich).
+
+User mistakes (a bad scenario, a missing file, an unwritable output) print one
+line naming what and where and exit with code 2; no tracebacks.
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import logging
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, help="lookahead: forward-camera perception testbench")
+bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks; each writes a JSON file.")
+app.add_typer(bench_app, name="bench")
+console = Console(stderr=True)
+
+
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions that mean the user's input or environment is wrong (not a bug)."""
+    from perception.detectors.onnx_detector import ModelError
+    from sim.scenario import ScenarioError
+    from tools.rundir import OutputError
+
+    return (ScenarioError, ModelError, OutputError, FileNotFoundError, PermissionError,
+            NotADirectoryError, IsADirectoryError)
+
+
+def user_errors(fn):
+    """Turn user mistakes into one line on stderr and exit code 2."""
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except _user_errors() as e:
+            console.print(f"[bold red]error:[/] {e}", markup=True, highlight=False, soft_wrap=True)
+            raise typer.Exit(2) from None
+
+    return wrapper
+
+
+def _progress() -> Progress:
+    return Progress(
+        TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+        TimeElapsedColumn(), console=console, transient=True, disable=not sys.stderr.isatty(),
+    )
+
+
+def run_scenario(
+    scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, quiet: bool = False
+) -> dict:
+    """Run one scenario into ``out``; returns the run summary."""
+    from sim.runner import Runner
+    from sim.scenario import load_scenario
+    from tools.rundir import RunDirWriter
+
+    scenario = load_scenario(scenario_path)
+    writer = RunDirWriter(out, scenario, source=str(scenario_path))
+    runner = Runner(scenario, sinks=[writer], render=render, renderer_backend=renderer)
+    with _progress() as prog:
+        task = prog.add_task(scenario.name, total=1.0)
+        summary = runner.run(progress=lambda f: prog.update(task, completed=f))
+    return summary.to_dict()
+
+
+@app.command()
+@user_errors
+def run(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
+    out: Annotated[Path, typer.Option("--out", help="run directory to write")],
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = True,
+    renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
+) -> None:
+    """Run a scenario in closed loop and write its run directory."""
+    summary = run_scenario(scenario, out, render=render, renderer=renderer)
+    hits = summary["collisions"]
+    console.print(
+        f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
+        f"{len(hits)} collision(s) -> {out}", highlight=False,
+    )
+
+
+@app.command()
+@user_errors
+def render(
+    scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
+    out: Annotated[Path, typer.Option("--out", help="directory for PNG frames")],
+    every: Annotated[int, typer.Option(help="keep every k-th camera frame")] = 1,
+    amodal: Annotated[bool, typer.Option(help="draw amodal (projected 3D) boxes instead of visible ones")] = False,
+    renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
+) -> None:
+    """Write PNG camera frames with ground-truth boxes, ids and classes drawn."""
+    from sim.runner import Runner
+    from sim.scenario import load_scenario
+    from tools.draw import draw_ground_truth, save_rgb
+    from tools.rundir import prepare_dir
+
+    sc = load_scenario(scenario)
+    prepare_dir(out)
+
+    class PngSink:
+        count = 0
+
+        def on_start(self, info: dict) -> None: ...
+
+        def on_tick(self, rec) -> None:
+            if rec.frame_index % every == 0 and rec.frame.image is not None:
+                save_rgb(out / f"frame_{rec.frame_index:05d}.png", draw_ground_truth(rec.frame.image, rec.ground_truth, amodal))
+                self.count += 1
+
+        def on_end(self, summary: dict) -> None: ...
+
+    sink = PngSink()
+    Runner(sc, sinks=[sink], render=True, renderer_backend=renderer).run()
+    console.print(f"{sink.count} frames -> {out}", highlight=False)
+
+
+@app.command()
+@user_errors
+def schema(out: Annotated[Path | None, typer.Option(help="write here instead of stdout")] = None) -> None:
+    """Print (or write) the JSON Schema of scenario files."""
+    from sim.scenario import scenario_json_schema
+
+    text = json.dumps(scenario_json_schema(), indent=2) + "\n"
+    if out is None:
+        typer.echo(text, nl=False)
+    else:
+        out.write_text(text)
+
+
+@app.command()
+@user_errors
+def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML files")]) -> None:
+    """Validate scenario files; one line per file."""
+    from sim.scenario import ScenarioError, load_scenario
+
+    bad = 0
+    for p in scenarios:
+        try:
+            load_scenario(p)
+            console.print(f"ok   {p}", highlight=False)
+        except ScenarioError as e:
+            bad += 1
+            console.print(f"[red]bad[/]  {e}", highlight=False)
+    if bad:
+        raise typer.Exit(2)
+
+
+@bench_app.command("sim")
+@user_errors
+def bench_sim(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic")] = Path("scenarios/following_traffic.yaml"),
+    ticks: Annotated[int, typer.Option(help="ticks per case")] = 400,
+    frames: Annotated[int, typer.Option(help="rendered frames per resolution")] = 30,
+) -> None:
+    """ms per tick: bare highway-env, our world, and rendering at 640x360 and 960x540."""
+    from tools.bench import bench_sim as run_bench
+    from tools.bench import print_bench
+
+    result = run_bench(scenario, ticks=ticks, frames=frames)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
+
+
+@app.command()
+def track(
+    det: Annotated[Path, typer.Option("--det", help="MOTChallenge det.txt")],
+    out: Annotated[Path, typer.Option("--out", help="tracks file to write (MOTChallenge format)")],
+    frame_rate: Annotated[float, typer.Option(help="frames per second of the sequence")] = 10.0,
+) -> None:
+    """Run the tracker over a MOTChallenge detection file."""
+    from tools.mot_cli import track_command
+
+    raise typer.Exit(track_command(det, out, frame_rate))
+
+
+@app.command("eval-mot")
+def eval_mot(
+    gt: Annotated[Path, typer.Option("--gt", help="MOTChallenge gt.txt")],
+    tracks: Annotated[Path, typer.Option("--tracks", help="tracks file")],
+    format: Annotated[str, typer.Option("--format", help="table | json")] = "table",
+) -> None:
+    """MOTA, MOTP, IDF1, HOTA, ID switches, FP, FN, MT/ML of a tracks file (TrackEval)."""
+    from tools.mot_cli import eval_mot_command
+
+    raise typer.Exit(eval_mot_command(gt, tracks, format))
+
+
+@app.command()
+@user_errors
+def demo(out: Annotated[Path, typer.Option("--out")] = Path("out/demo")) -> None:
+    """The main job: run the smoke suite and render a few annotated frames."""
+    from tools.demo import run_demo
+
+    run_demo(out, console)
+
+
+def main() -> None:
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    app()
+
+
+if __name__ == "__main__":
+    main()

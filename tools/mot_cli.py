@@ -1,0 +1,78 @@
+"""CLI bodies for ``lookahead track`` and ``lookahead eval-mot`` (wired into typer by tools.cli).
+
+Each returns a process exit code: 0 on success, 2 on bad input after printing
+one ``error: ...`` line to stderr (no traceback).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from tools.mot_eval import evaluate_mot, run_tracker_on_mot
+
+_FORMATS = ("table", "json")
+_TABLE_KEYS = (
+    ("hota", "HOTA", "{:.3f}"),
+    ("mota", "MOTA", "{:.3f}"),
+    ("motp", "MOTP", "{:.3f}"),
+    ("idf1", "IDF1", "{:.3f}"),
+    ("id_switches", "ID switches", "{}"),
+    ("fp", "FP", "{}"),
+    ("fn", "FN", "{}"),
+    ("mostly_tracked", "Mostly tracked", "{}"),
+    ("mostly_lost", "Mostly lost", "{}"),
+    ("fragmentations", "Fragmentations", "{}"),
+    ("num_gt_ids", "GT ids", "{}"),
+    ("num_tracker_ids", "Tracker ids", "{}"),
+)
+
+
+def _fail(message: str) -> int:
+    print(f"error: {message}", file=sys.stderr)
+    return 2
+
+
+def _describe(exc: Exception) -> str:
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"cannot read {exc.filename}: {exc.strerror or exc}"
+    return str(exc)
+
+
+def track_command(det: Path, out: Path, frame_rate: float) -> int:
+    """Track a MOTChallenge det.txt into a tracks file; print a one-line summary."""
+    if not frame_rate > 0:
+        return _fail(f"--frame-rate must be positive, got {frame_rate}")
+    try:
+        summary = run_tracker_on_mot(det, out, frame_rate=frame_rate)
+    except (OSError, ValueError) as exc:
+        return _fail(_describe(exc))
+    print(
+        f"wrote {out}: {summary['track_rows']} rows, {summary['tracks']} tracks over "
+        f"{summary['frames']} frames ({summary['dropped_detections']} invalid detections dropped)"
+    )
+    return 0
+
+
+def eval_mot_command(gt: Path, tracks: Path, fmt: str = "table") -> int:
+    """Evaluate a tracks file against gt.txt; print a rich table or JSON."""
+    if fmt not in _FORMATS:
+        return _fail(f"--format must be one of {', '.join(_FORMATS)}, got {fmt!r}")
+    try:
+        metrics = evaluate_mot(gt, tracks)
+    except (OSError, ValueError) as exc:
+        return _fail(_describe(exc))
+    if fmt == "json":
+        print(json.dumps(metrics, indent=2, sort_keys=True))
+        return 0
+    table = Table(title=f"{tracks} vs {gt}")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key, label, spec in _TABLE_KEYS:
+        table.add_row(label, spec.format(metrics[key]))
+    Console().print(table)
+    return 0
