@@ -38,7 +38,7 @@ class IntentConfig(BaseModel):
     horizon: float = Field(3.0, description="in-path prediction horizon (s)")
     arrival_slack: float = Field(0.5, description="in-path window ends at min(horizon, TTC + slack) (s)")
     range_rate_deadband: float = Field(1.0, description="|range rate| below this is 'stable' (m/s)")
-    init_frames: int = Field(3, description="tracks younger than this are 'initializing' (frames)")
+    init_frames: int = Field(5, description="tracks younger than this are 'initializing' (frames)")
     risk: dict[str, RiskThresholds] = Field(
         default_factory=lambda: {
             "pedestrian": RiskThresholds(high_distance=10, critical_distance=5, high_ttc=3.0, critical_ttc=1.5),

@@ -30,6 +30,7 @@ import numpy as np
 
 from intent.config import IntentConfig
 from perception.detections import CLASS_ID
+from perception.estimator import time_to_collision
 
 
 class Label(IntEnum):
@@ -141,6 +142,15 @@ class Assessment:
     def __len__(self) -> int:
         return len(self.ttc)
 
+    def to_dict(self) -> dict:
+        return {
+            "ttc": np.round(self.ttc, 3).tolist(),
+            "in_path": self.in_path.tolist(),
+            "risk": self.risk.tolist(),
+            "label": self.label.tolist(),
+            "behaviour": self.behaviour.tolist(),
+        }
+
 
 def _threshold_table(config: IntentConfig) -> dict[str, np.ndarray]:
     rt = [config.risk[g] for g in GROUPS]
@@ -157,15 +167,6 @@ def _threshold_table(config: IntentConfig) -> dict[str, np.ndarray]:
         "turn": np.array([b.turn_rate for b in bt]),
         "wrong": np.array([b.wrong_way_speed for b in bt]),
     }
-
-
-def time_to_collision(rng: np.ndarray, range_rate: np.ndarray) -> np.ndarray:
-    """TTC (s): range / closing speed while closing, inf when opening; 0 at range <= 0."""
-    r = np.asarray(rng, dtype=np.float64)
-    closing = -np.asarray(range_rate, dtype=np.float64)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ttc = np.where(closing > 1e-6, np.maximum(r, 0.0) / closing, np.inf)
-    return np.where(r <= 0.0, 0.0, ttc)
 
 
 def _ladder(value: np.ndarray, crit: np.ndarray, high: np.ndarray) -> np.ndarray:

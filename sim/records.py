@@ -52,6 +52,7 @@ class TickRecord:
     ground_truth: GroundTruth
     detections: Detections
     tracks: Any = None
+    estimates: Any = None
     assessments: Any = None
     alerts: list = field(default_factory=list)
     collisions: list[Collision] = field(default_factory=list)
@@ -65,7 +66,9 @@ class TickRecord:
             "ego": {k: round(v, 4) if isinstance(v, float) else v for k, v in self.ego.items()},
             "ground_truth": self.ground_truth.to_dict(),
             "detections": self.detections.to_dict(),
-            "tracks": self.tracks.to_dict() if self.tracks is not None else None,
+            "tracks": None if self.tracks is None else {
+                **self.tracks.to_dict(), **(self.estimates.to_dict() if self.estimates is not None else {})
+            },
             "assessments": self.assessments.to_dict() if hasattr(self.assessments, "to_dict") else None,
             "alerts": [a.to_dict() if hasattr(a, "to_dict") else a for a in self.alerts],
             "collisions": [c.to_dict() for c in self.collisions],

@@ -45,7 +45,7 @@ Pose = tuple[list[float], list[float]]  # position xyz, quaternion xyzw
 _QUAT_ID = (0.0, 0.0, 0.0, 1.0)
 _MARGIN = 30.0  # m of scenery kept around the camera's view sector
 _DASH_REACH = 150.0  # m; dashes further away are below a pixel wide
-_GROUND_TOP = -0.02  # m; grass/dirt plane, just below the asphalt
+_TILE = 25.0  # m; largest surface tile (llvmpipe mis-rasterises depth of larger triangles)
 _BASE_Z = -0.1  # m; bottom of road and pavement slabs
 
 
@@ -141,23 +141,25 @@ _AXIS_QUAT = {
 
 
 @contextlib.contextmanager
-def _quiet_stdout() -> Iterator[None]:
-    """Silence C-level stdout (the EGL plugin prints its GL banner there)."""
+def _quiet_c_output() -> Iterator[None]:
+    """Silence C-level stdout/stderr (the EGL plugin prints its GL banner there)."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    saved: list[tuple[int, int]] = []
+    devnull = os.open(os.devnull, os.O_WRONLY)
     try:
-        fd = sys.stdout.fileno()
-    except (AttributeError, OSError, ValueError):
-        yield
-        return
-    sys.stdout.flush()
-    saved, devnull = os.dup(fd), os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, fd)
-    try:
+        for fd in (1, 2):
+            with contextlib.suppress(OSError):
+                saved.append((fd, os.dup(fd)))
+                os.dup2(devnull, fd)
         yield
     finally:
         with contextlib.suppress(Exception):
             ctypes.CDLL(None).fflush(None)
-        os.dup2(saved, fd)
-        os.close(saved)
+        for fd, copy in saved:
+            os.dup2(copy, fd)
+            os.close(copy)
         os.close(devnull)
 
 
@@ -387,7 +389,7 @@ class _Client:
 
     def close(self) -> None:
         if self.cid >= 0:
-            with _quiet_stdout(), contextlib.suppress(Exception):
+            with _quiet_c_output(), contextlib.suppress(Exception):
                 if self.plugin >= 0:
                     p.unloadPlugin(self.plugin, physicsClientId=self.cid)
                 p.disconnect(self.cid)
@@ -455,7 +457,7 @@ class Renderer:
         layout: RoadLayout,
         seed: int,
         backend: str = "auto",
-        near: float = 0.1,
+        near: float = 1.0,
         far: float = 250.0,
     ) -> None:
         if backend not in ("auto", "egl", "tiny"):
@@ -479,12 +481,13 @@ class Renderer:
         self._proj = tuple(gl_projection(camera, self.near, self.far, offset).T.ravel().tolist())
         self._lut = np.full(64, -1, dtype=np.int32)  # body uid + 1 -> actor id
         self._actors: dict[int, _ActorBody] = {}
+        self._warm = False
         half_fov = max(
             np.arctan2(camera.K[0, 2], camera.fx),
             np.arctan2(camera.width - camera.K[0, 2], camera.fx),
         )
         self._fan = np.linspace(-1.0, 1.0, 9) * min(half_fov + 0.05, np.pi)
-        self._sky = self._sky_image()
+        self._bg_rgb, self._bg_depth = self._background()
         self._pools: list[_Pool] = []  # ground-level rows (kept in silhouettes)
         self._structures: list[_Pool] = []  # roadside structures (hidden in silhouettes)
         self._build_scene()
@@ -511,7 +514,7 @@ class Renderer:
         if spec is None or spec.origin is None:
             raise RuntimeError("pybullet's eglRenderer module not found")
         cid = self._client.cid
-        with _quiet_stdout():
+        with _quiet_c_output():
             plugin = p.loadPlugin(spec.origin, "_eglRendererPlugin", physicsClientId=cid)
             if plugin < 0:
                 raise RuntimeError("loading _eglRendererPlugin failed")
@@ -528,45 +531,90 @@ class Renderer:
     def _rng(self, *key: int) -> np.random.Generator:
         return np.random.default_rng([self.seed, *key])
 
-    def _sky_image(self) -> np.ndarray:
-        """(H, W, 3) uint8 sky: a vertical gradient, pale at the horizon."""
-        cam = self.camera
-        v = np.arange(cam.height) + 0.5
-        uv = np.stack([np.full_like(v, cam.width / 2), v], axis=1)
-        elev = np.arcsin(np.clip(cam.pixel_rays(uv)[:, 2], -1.0, 1.0))
-        t = np.clip(elev / 0.6, 0.0, 1.0)[:, None]
-        top, horizon = np.array([70, 120, 190.0]), np.array([190, 210, 228.0])
-        rows = (horizon + (top - horizon) * np.sqrt(t)).astype(np.uint8)
-        return np.ascontiguousarray(np.broadcast_to(rows[:, None, :], (cam.height, cam.width, 3)))
+    def _background(self) -> tuple[np.ndarray, np.ndarray]:
+        """What shows where no body is hit: (H, W, 3) uint8 colour and (H, W) float32 depth.
 
-    def _static_rect(self, r: Rect, z0: float, z1: float, rgba: Sequence[float]) -> int:
-        b = self._client.box(((r.x1 - r.x0) / 2, (r.y1 - r.y0) / 2, (z1 - z0) / 2), rgba)
-        self._client.pose(
-            b, ([(r.x0 + r.x1) / 2, (r.y0 + r.y1) / 2, (z0 + z1) / 2], list(_QUAT_ID))
+        Below the horizon an endless flat grass/dirt ground (z = 0), hazing toward the
+        horizon, at its exact metric depth (capped at ``far``); above it a sky gradient at
+        ``far``. Composited per frame, so the ground costs no geometry.
+        """
+        cam = self.camera
+        H, W = cam.height, cam.width
+        u, v = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
+        uv = np.stack([u, v], axis=-1)
+        rays = cam.pixel_rays(uv)
+        ground = cam.ground_points(uv)
+        z = cam.ego_to_camera(ground)[..., 2]
+        hit = np.isfinite(z)
+        elev = np.arcsin(np.clip(rays[..., 2], -1.0, 1.0))[..., None]
+        top, horizon = np.array([70, 120, 190.0]), np.array([190, 210, 228.0])
+        sky = horizon + (top - horizon) * np.sqrt(np.clip(elev / 0.6, 0.0, 1.0))
+        g = self._rng(1)
+        grounds = [(0.33, 0.42, 0.21), (0.38, 0.4, 0.23), (0.42, 0.38, 0.28)]
+        base = np.array(_rgba(grounds[int(g.integers(len(grounds)))], g, 0.03)[:3]) * 200.0
+        dist = np.where(hit, z, np.inf)[..., None]
+        haze = 1.0 - np.exp(-dist / 400.0)
+        grass = base + (horizon * 0.9 - base) * haze
+        rgb = np.where(hit[..., None], grass, sky)
+        depth = np.where(hit, np.minimum(z, self.far), self.far)
+        return np.clip(rgb, 0, 255).astype(np.uint8), depth.astype(np.float32)
+
+    def _add_surface(self, r: Rect, z0: float, z1: float, rgba: Sequence[float]) -> None:
+        """A flat slab over rect ``r`` from z0 to z1, as pooled tiles at most ``_TILE`` m."""
+        lx, ly = r.x1 - r.x0, r.y1 - r.y0
+        along_x = lx >= ly
+        length, depth = (lx, ly) if along_x else (ly, lx)
+        n_across = int(np.ceil(depth / _TILE - 1e-9))
+        w = depth / n_across
+        for s in range(n_across):
+            if along_x:
+                origin, d = np.array([r.x0, r.y0 + w * (s + 0.5)]), np.array([1.0, 0.0])
+            else:
+                origin, d = np.array([r.x0 + w * (s + 0.5), r.y0]), np.array([0.0, 1.0])
+            self._add_strip(origin, d, length, w, z0, z1, rgba)
+
+    def _add_strip(
+        self,
+        origin: np.ndarray,
+        d: np.ndarray,
+        length: float,
+        width: float,
+        z0: float,
+        z1: float,
+        rgba: Sequence[float],
+    ) -> None:
+        """A straight strip from ``origin`` along unit ``d``, as pooled equal tiles."""
+        # TinyRenderer scans each triangle's screen bounding box: long thin tiles seen
+        # end-on cost far more than their area, so it gets short tiles (hidden ones are free).
+        tile = _TILE if self.backend == "egl" else min(_TILE, max(4.0 * width, 2.0))
+        n = max(int(np.ceil(length / tile - 1e-9)), 1)
+        step = length / n
+        row = _Row(origin, d, length, step, step / 2, n, step / 2, width / 2)
+        pose_z, yaw = (z0 + z1) / 2, _quat_z(row.yaw)
+        # Tiles overlap by 1 cm so no crack shows between them.
+        half = (step / 2 + 0.005, width / 2, (z1 - z0) / 2)
+
+        def place(k: int, j: int) -> list[Pose | None]:
+            c = row.point(k)
+            return [([c[0], c[1], pose_z], yaw)]
+
+        make = lambda j: [self._client.box(half, rgba)]  # noqa: E731
+        self._pools.append(
+            _Pool(self._client, row, self._slots(row, self.far), make, place, self.far)
         )
-        return b
 
     def _build_scene(self) -> None:
         lay = self.layout
-        rng = self._rng(1)
-        ground = _rgba(
-            [(0.32, 0.42, 0.2), (0.38, 0.4, 0.22), (0.42, 0.37, 0.28)][int(rng.integers(3))],
-            rng,
-            0.03,
-        )
-        half = self.far + 2 * _MARGIN
-        self._ground = self._client.box((half, half, 0.05), ground)
         asphalt = _disjoint(lay.asphalt)
         for i, r in enumerate(asphalt):
-            self._static_rect(r, _BASE_Z, 0.0, _rgba((0.24, 0.24, 0.25), self._rng(2, i), 0.015))
+            self._add_surface(r, _BASE_Z, 0.0, _rgba((0.24, 0.24, 0.25), self._rng(2, i), 0.015))
         sidewalks = _disjoint(lay.sidewalks, minus=asphalt)
         kerbs = _kerb_strips(sidewalks, asphalt, 0.2)
+        pavement = _rgba((0.6, 0.59, 0.56), self._rng(3), 0.01)
         for r in _disjoint(sidewalks, minus=kerbs):
-            self._static_rect(
-                r, _BASE_Z, lay.kerb_height, _rgba((0.6, 0.59, 0.56), self._rng(3), 0.01)
-            )
+            self._add_surface(r, _BASE_Z, lay.kerb_height, pavement)
         for r in kerbs:
-            self._static_rect(r, _BASE_Z, lay.kerb_height, (0.78, 0.78, 0.75, 1.0))
+            self._add_surface(r, _BASE_Z, lay.kerb_height, (0.78, 0.78, 0.75, 1.0))
         white = (0.9, 0.9, 0.88, 1.0)
         for m in lay.markings:
             a, b = np.asarray(m.start, dtype=np.float64), np.asarray(m.end, dtype=np.float64)
@@ -575,9 +623,7 @@ class Renderer:
                 continue
             d = (b - a) / length
             if not m.dashed:
-                body = self._client.box((length / 2, m.width / 2, 0.01), white)
-                c = (a + b) / 2
-                self._client.pose(body, ([c[0], c[1], 0.0], _quat_z(float(np.arctan2(d[1], d[0])))))
+                self._add_strip(a, d, length, m.width, -0.01, 0.01, white)
             elif length >= 3.0:
                 row = _Row(a, d, length, 9.0, 1.5, int((length - 3.0) // 9.0) + 1, 1.5, m.width / 2)
                 self._add_dashes(row, m.width, white)
@@ -635,7 +681,7 @@ class Renderer:
         def make(j: int) -> list[int]:
             g = self._rng(4, i, j)
             shade = 0.24 + g.choice([-1.0, 1.0]) * g.uniform(0.025, 0.05)
-            half = (g.uniform(0.6, 2.5), min(g.uniform(0.4, 1.5), depth / 2 - 0.1), 0.004)
+            half = (g.uniform(0.6, 2.5), min(g.uniform(0.4, 1.5), depth / 2 - 0.1), 0.006)
             return [self._client.box(half, _rgba((shade, shade, shade * 1.02), g, 0.005))]
 
         def place(k: int, j: int) -> list[Pose | None]:
@@ -686,20 +732,20 @@ class Renderer:
                 ]
                 wall = _rgba(walls[int(g.integers(len(walls)))], g, 0.05)
                 glass = _rgba((0.16, 0.2, 0.26), g, 0.03)
-                links = [
-                    _Link(p.GEOM_BOX, (bl / 2, bd / 2, bh / 2), wall, (0.0, 0.0, bh / 2 + _BASE_Z))
-                ]
-                for f in range(int(bh // 3.0)):  # window bands, proud of both long facades
-                    z = 3.0 * f + 1.7 + _BASE_Z
-                    if z + 0.6 < bh:
-                        links.append(
-                            _Link(
-                                p.GEOM_BOX,
-                                (bl / 2 - 0.6, bd / 2 + 0.02, 0.55),
-                                glass,
-                                (0.0, 0.0, z),
-                            )
-                        )
+                # A glazed core with wall slabs between the storeys standing 0.08 m proud:
+                # window bands on every facade and no coplanar faces (EGL has 16-bit depth).
+                links = [_Link(p.GEOM_BOX, (bl / 2, bd / 2, bh / 2), glass, (0.0, 0.0, bh / 2))]
+                slab = (bl / 2 + 0.08, bd / 2 + 0.08)
+                floors = max(int(bh // 3.0), 1)
+                storey = bh / floors
+                for f in range(floors + 1):
+                    z0 = _BASE_Z if f == 0 else f * storey - (0.35 if f < floors else 0.5)
+                    z1 = 0.9 if f == 0 else min(f * storey + 0.45, bh + 0.3)
+                    links.append(
+                        _Link(p.GEOM_BOX, (*slab, (z1 - z0) / 2), wall, (0.0, 0.0, (z0 + z1) / 2))
+                    )
+                for x in (-bl / 2 + 0.3, bl / 2 - 0.3):  # corner piers
+                    links.append(_Link(p.GEOM_BOX, (0.45, slab[1], bh / 2), wall, (x, 0.0, bh / 2)))
                 bodies.append(cl.body(links))
                 sizes[j] = bd
             th, cr = g.uniform(1.8, 3.2), g.uniform(1.2, 2.8)
@@ -804,15 +850,20 @@ class Renderer:
             raise KeyError(f"actors {sorted(unknown)} were not added to the renderer")
         cid = self._client.cid
         for aid, a in self._actors.items():
-            if aid not in actors:
-                if a.visible:
-                    self._client.hide(a.body)
-                    a.visible = False
-                continue
-            x, y, heading, phase = (float(v) for v in actors[aid])
-            z = float(surface_height(self.layout, np.array([[x, y]]))[0])
+            if aid not in actors and a.visible:
+                self._client.hide(a.body)
+                a.visible = False
+        if not actors:
+            return
+        ids = list(actors)
+        poses = np.array(
+            [[float(v) for v in actors[i][:4]] for i in ids], dtype=np.float64
+        ).reshape(-1, 4)
+        z = surface_height(self.layout, poses[:, :2])
+        for aid, (x, y, heading, phase), zi in zip(ids, poses, z, strict=True):
+            a = self._actors[aid]
             p.resetBasePositionAndOrientation(
-                a.body, [x, y, z], _quat_z(heading), physicsClientId=cid
+                a.body, [x, y, float(zi)], _quat_z(heading), physicsClientId=cid
             )
             if a.joints:
                 th = a.shape.swing_angles(phase)[a.parts]
@@ -833,10 +884,6 @@ class Renderer:
         )
 
     def _update_scenery(self, ego_pose: Sequence[float], structures: bool) -> None:
-        centre, _ = camera_world_pose(self.camera, ego_pose)
-        self._client.pose(
-            self._ground, ([centre[0], centre[1], _GROUND_TOP - 0.05], list(_QUAT_ID))
-        )
         windows: dict[float, np.ndarray] = {}
         for pool in self._pools + (self._structures if structures else []):
             if pool.view_reach not in windows:
@@ -846,14 +893,31 @@ class Renderer:
             for pool in self._structures:
                 pool.hide()
 
+    def _light(self, ego_pose: Sequence[float]) -> list[float]:
+        """Sun direction (world, toward the light): high, behind-left of the camera.
+
+        Fixed relative to the camera so the EGL shader's specular glint never lands on
+        the road ahead. The EGL plugin reads the vector as a light *position* (world), so
+        it is pushed 1000 km away to act as a sun; TinyRenderer reads a direction.
+        """
+        h = float(ego_pose[2]) + self.camera.yaw
+        lx, ly = -0.5, 0.12
+        d = np.array([lx * np.cos(h) - ly * np.sin(h), lx * np.sin(h) + ly * np.cos(h), 1.0])
+        d /= np.linalg.norm(d)
+        return (d * (1e6 if self.backend == "egl" else 1.0)).tolist()
+
     def _capture(self, ego_pose: Sequence[float]) -> tuple:
         view = tuple(gl_view(self.camera, ego_pose).T.ravel().tolist())
+        if not self._warm:  # the EGL plugin prints a banner on its first frame
+            self._warm = True
+            with _quiet_c_output():
+                return self._capture(ego_pose)
         return p.getCameraImage(
             self.camera.width,
             self.camera.height,
             view,
             self._proj,
-            lightDirection=[0.35, 0.25, 1.0],
+            lightDirection=self._light(ego_pose),
             lightColor=[1.0, 1.0, 0.97],
             lightAmbientCoeff=0.55,
             lightDiffuseCoeff=0.5,
@@ -882,12 +946,13 @@ class Renderer:
         raw = self._shape(out[4], np.int32)[..., 0]
         bg = raw < 0
         rgb = np.ascontiguousarray(self._shape(out[2], np.uint8)[..., :3])
-        rgb[bg] = self._sky[bg]
-        d = self._shape(out[3], np.float64)[..., 0]
-        n, f = self.near, self.far
-        depth = (f * n / (f - (f - n) * d)).astype(np.float32)
-        depth[bg] = f
+        rgb[bg] = self._bg_rgb[bg]
+        # GL depth d in [0, 1] -> metric z; 1 - d is exact in float32 where it matters.
+        d = self._shape(out[3], np.float32)[..., 0]
+        n, f = np.float32(self.near), np.float32(self.far)
+        depth = (f * n) / (n + (f - n) * (np.float32(1.0) - d))
         np.minimum(depth, f, out=depth)
+        depth[bg] = self._bg_depth[bg]
         return RenderResult(rgb=rgb, depth=depth, seg=self._lut[raw + 1])
 
     def silhouettes(

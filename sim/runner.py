@@ -16,9 +16,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from intent.config import IntentConfig
+from intent.labels import Assessment, Kinematics, assess
 from perception.camera import CameraModel
+from perception.detections import Detections
 from perception.detectors.base import Detector, DetectorTruth
+from perception.estimator import Estimates, Estimator, EstimatorConfig
 from perception.frame import Frame
+from perception.tracker import Tracker, TrackerConfig, Tracks
 from sim.groundtruth import GroundTruth, compute_ground_truth
 from sim.records import Sink, TickRecord
 from sim.scenario import DetectorSpec, Scenario
@@ -65,6 +69,39 @@ def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
     )
 
 
+class PerceptionStack:
+    """Detector -> tracker -> estimator -> intent for one camera; each stage timed (ms).
+
+    Knows nothing of the simulator: ``truth`` is only handed to simulated detectors.
+    """
+
+    def __init__(
+        self, detector: Detector, camera: CameraModel, frame_rate: float, intent_config: IntentConfig,
+        tracker_config: TrackerConfig | None = None, estimator_config: EstimatorConfig | None = None,
+    ) -> None:
+        self.detector = detector
+        self.tracker = Tracker(tracker_config, frame_rate=frame_rate)
+        self.estimator = Estimator(camera, estimator_config)
+        self.intent_config = intent_config
+
+    def process(
+        self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
+    ) -> tuple[Detections, Tracks, Estimates, Assessment]:
+        t0 = time.perf_counter()
+        dets = self.detector.detect(frame.image, truth)
+        t1 = time.perf_counter()
+        tracks = self.tracker.update(dets)
+        t2 = time.perf_counter()
+        est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
+        t3 = time.perf_counter()
+        kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
+        assessment = assess(kin, self.intent_config, frame.odometry.speed, frame.odometry.yaw_rate)
+        t4 = time.perf_counter()
+        timings.update(detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3, estimate=(t3 - t2) * 1e3,
+                       intent=(t4 - t3) * 1e3)
+        return dets, tracks, est, assessment
+
+
 @dataclass
 class RunSummary:
     ticks: int
@@ -102,7 +139,11 @@ class Runner:
         self.world = World(scenario)
         self.camera = camera_from_scenario(scenario)
         self.intent_config = intent_config or IntentConfig().with_overrides(scenario.intent)
-        self.detector = detector or build_detector(scenario.perception.detector, scenario.seed)
+        p = scenario.perception
+        self.perception = PerceptionStack(
+            detector or build_detector(p.detector, scenario.seed), self.camera, scenario.camera.rate,
+            self.intent_config, TrackerConfig(**p.tracker), EstimatorConfig(**p.estimator),
+        )
         self.renderer = None
         if render:
             from sim.renderer import Renderer
@@ -185,9 +226,7 @@ class Runner:
     def _emit(self, sim_ms: float, collisions: list) -> None:
         t_start = time.perf_counter()
         frame, gt, timings = self.frame()
-        t0 = time.perf_counter()
-        dets = self.detector.detect(frame.image, detector_truth(gt, self.camera))
-        timings["detect"] = (time.perf_counter() - t0) * 1e3
+        dets, tracks, est, assessment = self.perception.process(frame, detector_truth(gt, self.camera), timings)
         timings["sim"] = sim_ms
         w = self.world
         x, y, yaw = w.ego_pose()
@@ -195,7 +234,8 @@ class Runner:
                "brake": w.ego.brake_command}
         record = TickRecord(
             tick=w.tick, frame_index=self.frame_index, t=w.t, ego=ego, frame=frame,
-            ground_truth=gt, detections=dets, collisions=list(collisions), timings=timings,
+            ground_truth=gt, detections=dets, tracks=tracks, estimates=est, assessments=assessment,
+            collisions=list(collisions), timings=timings,
         )
         t0 = time.perf_counter()
         for s in self.sinks:

@@ -109,6 +109,10 @@ class DetectorSpec(Strict):
 
 class PerceptionSpec(Strict):
     detector: DetectorSpec = Field(default_factory=DetectorSpec)
+    tracker: dict[str, Any] = Field(default_factory=dict, description="perception.tracker.TrackerConfig overrides")
+    estimator: dict[str, Any] = Field(
+        default_factory=dict, description="perception.estimator.EstimatorConfig overrides"
+    )
 
 
 class StartSpec(Strict):

@@ -496,7 +496,7 @@ def _car(rng: np.random.Generator, subtype: str) -> ActorShape:
         b.box((L / 2 - 0.01, y, lamp_z), (0.012, 0.16, 0.05), (0.95, 0.95, 0.88, 1.0))
         b.box((-L / 2 + 0.01, y, lamp_z), (0.012, 0.15, 0.05), (0.75, 0.04, 0.04, 1.0))
     b.box(
-        (-L / 2 + 0.02, 0.0, (clr + z_low) / 2 + 0.02), (0.012, 0.26, 0.06), (0.9, 0.9, 0.9, 1.0)
+        (-L / 2 - 0.01, 0.0, (clr + z_low) / 2 + 0.02), (0.012, 0.26, 0.06), (0.9, 0.9, 0.9, 1.0)
     )  # plate
     return b.shape("car", subtype, 0.0)
 
@@ -530,7 +530,7 @@ def _truck(rng: np.random.Generator) -> ActorShape:
         _GLASS,
     )
     for y in (W / 2 - 0.3, -W / 2 + 0.3):
-        b.box((L / 2 - 0.01, y, 0.8), (0.012, 0.18, 0.07), (0.95, 0.95, 0.88, 1.0))
+        b.box((L / 2 + 0.01, y, 0.8), (0.012, 0.18, 0.07), (0.95, 0.95, 0.88, 1.0))
     cargo_l = L - cab_l - 0.15
     xc = -L / 2 + cargo_l / 2
     b.box((xc, 0.0, (1.1 + H) / 2), (cargo_l / 2, W / 2, (H - 1.1) / 2), cargo)
@@ -573,14 +573,16 @@ def _bus(rng: np.random.Generator) -> ActorShape:
         b.box((x, 0.0, (z1 + z_roof) / 2), (e / 2, W / 2, (z_roof - z1) / 2), paint)
     b.box((0.0, 0.0, (z_roof + H) / 2), (L / 2, W / 2, (H - z_roof) / 2), paint)
     b.box(
-        (L / 2 - 0.02, 0.0, (0.95 + z_roof) / 2), (0.025, W / 2 - 0.14, (z_roof - 0.95) / 2), _GLASS
+        (L / 2 + 0.005, 0.0, (0.95 + z_roof) / 2),
+        (0.025, W / 2 - 0.14, (z_roof - 0.95) / 2),
+        _GLASS,
     )
     b.box(
-        (L / 2 - 0.02, 0.0, z_roof + 0.14), (0.025, W / 2 - 0.3, 0.1), (0.1, 0.1, 0.1, 1.0)
+        (L / 2 + 0.005, 0.0, z_roof + 0.14), (0.025, W / 2 - 0.3, 0.1), (0.1, 0.1, 0.1, 1.0)
     )  # sign
     for y in (W / 2 - 0.3, -W / 2 + 0.3):
-        b.box((L / 2 - 0.01, y, 0.6), (0.015, 0.18, 0.07), (0.95, 0.95, 0.88, 1.0))
-        b.box((-L / 2 + 0.01, y, 0.7), (0.015, 0.12, 0.15), (0.75, 0.04, 0.04, 1.0))
+        b.box((L / 2 + 0.01, y, 0.6), (0.015, 0.18, 0.07), (0.95, 0.95, 0.88, 1.0))
+        b.box((-L / 2 - 0.01, y, 0.7), (0.015, 0.12, 0.15), (0.75, 0.04, 0.04, 1.0))
     return b.shape("bus", "bus", 0.0)
 
 
@@ -620,7 +622,7 @@ def _animal(rng: np.random.Generator, subtype: str) -> ActorShape:
     b.box((0.0, 0.0, body_z), (L / 2, bw, bh), fur)
     if subtype == "cow":  # a contrasting flank patch, slightly proud of the body, and an udder
         patch = _pick(rng, [(0.95, 0.95, 0.93), (0.1, 0.1, 0.1)])
-        b.box((-0.1 * L, 0.0, body_z + 0.1 * bh), (0.22 * L, bw + 0.01, 0.55 * bh), patch)
+        b.box((-0.1 * L, 0.0, body_z + 0.1 * bh), (0.22 * L, bw + 0.025, 0.55 * bh), patch)
         b.box((0.05 * L, 0.0, body_z - bh - 0.05), (0.12, 0.1, 0.06), _rgba((0.9, 0.7, 0.7)))
     amp = 0.3 if subtype == "cow" else 0.45
     leg_top = body_z - 0.3 * bh

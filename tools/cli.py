@@ -176,6 +176,14 @@ def bench_sim(
 
 
 @app.command()
+def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> None:
+    """Score a run directory into its metrics.json (detection, tracking, estimation)."""
+    from tools.score import score_command
+
+    raise typer.Exit(score_command(run_dir))
+
+
+@app.command()
 def track(
     det: Annotated[Path, typer.Option("--det", help="MOTChallenge det.txt")],
     out: Annotated[Path, typer.Option("--out", help="tracks file to write (MOTChallenge format)")],

@@ -1,0 +1,785 @@
+"""Range, lateral offset, ego-frame velocity and TTC of tracked objects from one camera.
+
+Frames and units
+----------------
+Ego frame (ISO 8855): origin at the centre of the front bumper on the ground,
+x forward, y left, z up. m, s, m/s, rad. Pixels through ``CameraModel``
+(``mount`` m = (m_x, m_y, m_z) in the ego frame). Boxes are float xyxy px.
+``range`` is the ego-frame x of the object's *nearest* point (its visible
+face), ``lateral`` the y of its centre, ``half_width`` half its y extent --
+the definitions the ground truth uses (``sim.groundtruth``).
+
+One frame: range from a box (``Estimator.measure``, vectorised)
+----------------------------------------------------------------
+Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
+(``camera.pixel_rays``) and s(v) = d_z / d_x its slope in column u_c.
+
+1. Ground contact. The lowest image point of an object standing on a flat
+   road is its nearest bottom edge, so the bottom-centre pixel (u_c, y2)
+   back-projected onto z = 0 (``camera.ground_points``) gives x_g. Its std is
+   sigma_g = |dx_g/dv| * sigma_v with sigma_v^2 = sigma_px^2 + (k h_px)^2 +
+   (f_y sigma_pitch)^2 (fixed pixel noise, edge jitter proportional to the box
+   height h_px, road slope / pitching); dx_g/dv ~ (x_g - m_x)^2 / (f_y m_z), so
+   sigma_g grows as r^2 / (f h).
+2. Height prior H +- sigma_H of the class. A vertical face at x whose foot
+   and top project to rows y2 and y1 obeys H = (x - m_x) (s(y1) - s(y2)), so
+   x_h = m_x + H / ds -- the exact, pitch-aware form of r_cam ~ f_y H / h_px.
+   sigma_h^2 = (x_c sigma_H / H)^2 + (x_c sigma_ds / ds)^2, x_c = x_h - m_x.
+3. Fusion by inverse variance: x = (x_g / sigma_g^2 + x_h / sigma_h^2) /
+   (1 / sigma_g^2 + 1 / sigma_h^2), 1 / sigma^2 = 1 / sigma_g^2 + 1 / sigma_h^2.
+   Both use y2, so their errors correlate a little; the correlation is ignored.
+4. Truncation. A box cut at the top (y1 <= margin) has no height: ground
+   contact only. A box cut at the image bottom (y2 >= H_img - margin) has no
+   contact point: its top ray meets the plane z = H at x_t = m_x +
+   (H - m_z) / s(y1) (std from sigma_H and the top edge), and its foot is
+   below the image, so x <= U = the ground x of the bottom image row (and
+   x <= m_x + (H + 2 sigma_H) / ds_visible). The estimate is the mean and
+   std of N(x_t, sigma_t^2) truncated to [min(0, U), U] (uniform on it when
+   x_t is undefined, e.g. H <= m_z). Cut at both ends: the uniform only.
+5. Lateral: the bottom-centre ray at the fused x, y = m_y + (x - m_x) d_y/d_x;
+   the rays through the two bottom corners give the y extent and half_width.
+   For an object wholly to one side the inner box edge comes from its far
+   face, so the inner edge is placed conservatively close to the ego's axis
+   and the centre a little too (a 1.8 x 4.5 m car 3 m to the side at 10 m:
+   about 0.3 m). A box cut at the left / right image edge: the visible edge
+   plus the class half-width prior. Measurement covariance: sigma_y^2 =
+   (t sigma_x)^2 + ((x - m_x) sigma_u / f_x)^2 + floor^2, cov_xy = t sigma_x^2,
+   t = d_y/d_x.
+
+Tracking: one Kalman filter per track_id (filterpy)
+----------------------------------------------------
+State X = [x, y, v_x, v_y, a_x, a_y] (``motion_model="ca"``, default) or
+[x, y, v_x, v_y] (``"cv"``): the measured point in the *current* ego frame
+(m) and the object's velocity (m/s) and acceleration (m/s^2) **over the
+ground**, in the current ego axes. Keeping ground motion (not motion relative
+to the ego) in the state makes a stationary object a constant state while the
+ego brakes or turns. Ego motion between frames (dt, mean odometry speed v and
+yaw rate w over the interval, the origin moving at (v, 0) as the ground truth
+assumes) is a turn theta = w dt and a chord c = v dt sinc(theta / 2) along
+heading theta / 2; the state is first re-expressed in the new ego frame:
+
+    p <- R(-theta) (p - c (cos theta/2, sin theta/2)),  v <- R(-theta) v,  a <- R(-theta) a,
+    P <- J P J^T,  J = diag(R(-theta), R(-theta)[, R(-theta)]),
+
+then predicted with (I = 2x2 identity; sigma_a, q_j per class)
+
+    ca: F = [[I, dt I, dt^2/2 I], [0, I, dt I], [0, 0, I]],
+        Q = continuous white-noise jerk, spectral density q_j = jerk_sigma^2
+            (filterpy ``Q_continuous_white_noise``);
+    cv: F = [[I, dt I], [0, I]],
+        Q = sigma_a^2 [[dt^4/4 I, dt^3/2 I], [dt^3/2 I, dt^2 I]] (piecewise white acceleration),
+
+and updated with z = (x, y) of steps 3-5, H = [I 0 ...] and R = its 2x2
+covariance. With ``detections``, a track matched this frame is measured on
+its raw detection box, not on the tracker's smoothed one (no stacked lag).
+A box cut at the bottom updates a running filter with its bearing only (the
+range std set to 100 m along the ray; the height prior's error is the same
+every frame and would drag the filter), and pulls a prediction beyond the
+bound back to x_max. A measurement with NIS > ``reinit_nis`` restarts the
+filter. New filters take their relative velocity from the tracker's box rates
+(range rate = -(x - m_x) (dh/dt) / h from the scale change, lateral from
+d(u)/dt) with std ``init_velocity_sigma``, zero acceleration with std
+``init_accel_sigma``. Outputs (the ground truth's formulas):
+
+    range_rate = v_x - v_ego + w y,   lateral_rate = v_y - w x,
+    ground_vx, ground_vy = v_x, v_y,
+    ttc = range / -range_rate while closing, inf otherwise, 0 at range <= 0.
+
+accel: the filter's acceleration (ca) or the slope of a least-squares line
+through the filtered ground velocity over the last ``history_s`` (cv),
+projected on the direction of motion; yaw_rate: slope of a line through the
+unwrapped heading of the ground velocity (world-fixed axes, integrating the
+ego's yaw) over ``history_s``. Both are NaN until the filter has had
+``settle_updates`` updates and ``min_history`` samples, and while the object
+is slower than ``min_speed_accel`` / ``min_speed_yaw``.
+
+Call ``update`` every frame, also with no tracks, so ego motion accumulates.
+Filters of tracks unseen for more than ``max_coast_s`` are dropped.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import deque
+from dataclasses import dataclass, field, fields
+from typing import Literal
+
+import numpy as np
+from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
+from filterpy.kalman import KalmanFilter
+from pydantic import BaseModel, ConfigDict, Field
+from scipy.stats import truncnorm
+
+from perception.camera import CameraModel
+from perception.detections import CLASSES, Detections
+from perception.frame import EgoOdometry
+from perception.tracker import Tracks, TrackState
+
+log = logging.getLogger(__name__)
+
+_DV = 0.5  # px, finite-difference step for d(ray)/dv
+_MIN_DEPTH = 0.1  # m, nearest camera-forward distance accepted for a measurement
+_BEARING_ONLY_SIGMA = 100.0  # m, range std of a bearing-only measurement
+
+
+class ClassPrior(BaseModel):
+    """Size and motion prior of one class (m, m/s^2). Width = y extent seen from behind/front."""
+
+    model_config = ConfigDict(extra="forbid")
+    height: float = Field(gt=0, description="mean object height (m)")
+    height_sigma: float = Field(gt=0, description="std of the height (m)")
+    width: float = Field(gt=0, description="mean width (m)")
+    width_sigma: float = Field(gt=0, description="std of the width (m)")
+    accel_sigma: float = Field(2.0, gt=0, description="'cv' model: white-noise acceleration std (m/s^2)")
+    jerk_sigma: float = Field(
+        3.0, gt=0, description="'ca' model: sqrt of the white-noise jerk spectral density (m/s^2.5)"
+    )
+
+
+def _default_priors() -> dict[str, ClassPrior]:
+    p = ClassPrior
+    return {
+        # 1.60 +- 0.25: adults (1.70 +- 0.10) and children together.
+        "pedestrian": p(height=1.60, height_sigma=0.25, width=0.55, width_sigma=0.15, accel_sigma=1.5, jerk_sigma=2.0),
+        "cyclist": p(height=1.75, height_sigma=0.15, width=0.65, width_sigma=0.2, accel_sigma=2.0, jerk_sigma=2.5),
+        "motorcyclist": p(height=1.60, height_sigma=0.20, width=0.80, width_sigma=0.2, accel_sigma=3.0, jerk_sigma=3.0),
+        "tricycle": p(height=1.60, height_sigma=0.25, width=1.10, width_sigma=0.3, accel_sigma=2.0, jerk_sigma=2.5),
+        "car": p(height=1.50, height_sigma=0.15, width=1.80, width_sigma=0.15, accel_sigma=3.0, jerk_sigma=3.0),
+        "truck": p(height=3.20, height_sigma=0.50, width=2.50, width_sigma=0.15, accel_sigma=2.0, jerk_sigma=2.0),
+        "bus": p(height=3.10, height_sigma=0.30, width=2.55, width_sigma=0.10, accel_sigma=2.0, jerk_sigma=2.0),
+        "animal": p(height=0.90, height_sigma=0.45, width=0.50, width_sigma=0.30, accel_sigma=3.0, jerk_sigma=3.0),
+    }
+
+
+class EstimatorConfig(BaseModel):
+    """Estimator parameters (SI units; pixel noise in px).
+
+    Defaults suit a 640x360, 90 deg camera at 10 Hz fed by the tracker's boxes.
+    """
+
+    model_config = ConfigDict(extra="forbid")
+    priors: dict[str, ClassPrior] = Field(
+        default_factory=_default_priors, description="per class name (perception.detections.CLASSES)"
+    )
+    default_prior: ClassPrior = Field(
+        default_factory=lambda: ClassPrior(
+            height=1.5, height_sigma=0.6, width=1.5, width_sigma=0.8, accel_sigma=3.0, jerk_sigma=3.0
+        ),
+        description="for classes without a prior (e.g. class id -1)",
+    )
+    motion_model: Literal["cv", "ca"] = Field(
+        "ca", description="constant velocity or constant acceleration Kalman model"
+    )
+    contact_sigma_px: float = Field(1.0, ge=0, description="fixed pixel noise of a box edge (px)")
+    edge_sigma_rel: float = Field(0.03, ge=0, description="edge noise as a fraction of the box size")
+    pitch_sigma: float = Field(
+        0.003, ge=0, description="road slope / pitching std; ground contact only (rad)"
+    )
+    edge_margin_px: float = Field(1.0, ge=0, description="a box this close to an image edge is cut there (px)")
+    position_sigma_floor: float = Field(0.1, ge=0, description="model error added to x and y (m)")
+    init_velocity_sigma: float = Field(8.0, gt=0, description="std of a new filter's velocity (m/s)")
+    init_accel_sigma: float = Field(3.0, gt=0, description="std of a new 'ca' filter's accel (m/s^2)")
+    max_init_speed: float = Field(40.0, gt=0, description="clip of the initial relative speed (m/s)")
+    reinit_nis: float = Field(50.0, gt=0, description="restart a filter above this NIS (2 dof)")
+    max_coast_s: float = Field(2.0, ge=0, description="drop a filter unseen for longer (s)")
+    half_width_alpha: float = Field(0.5, gt=0, le=1, description="EMA weight of a new half-width")
+    history_s: float = Field(1.0, gt=0, description="window of the accel / yaw-rate fits (s)")
+    min_history: int = Field(4, ge=2, description="samples needed for accel / yaw rate")
+    settle_updates: int = Field(5, ge=1, description="updates before velocity enters the history")
+    min_speed_accel: float = Field(0.5, ge=0, description="accel is NaN below this ground speed (m/s)")
+    min_speed_yaw: float = Field(1.0, ge=0, description="yaw rate is NaN below this ground speed (m/s)")
+
+
+@dataclass
+class Measurement:
+    """Single-frame position measurements of N boxes (ego frame, m). NaN where undefined.
+
+    ``x`` / ``sigma``: fused range and its std; ``x_ground`` / ``sigma_ground``:
+    ground contact; ``x_height`` / ``sigma_height``: height prior (box height,
+    or the top ray for boxes cut at the bottom); ``cov``: (N, 2, 2) covariance
+    of (x, lateral). ``x_max``: upper bound of the range of boxes cut at the
+    bottom (NaN otherwise). ``tan_y`` = (lateral - m_y) / (x - m_x), the bearing; ``sigma_bearing``
+    its std (rad); ``var_y_extra``: lateral variance not due to x or bearing (m^2).
+    """
+
+    x: np.ndarray
+    sigma: np.ndarray
+    x_ground: np.ndarray
+    sigma_ground: np.ndarray
+    x_height: np.ndarray
+    sigma_height: np.ndarray
+    lateral: np.ndarray
+    half_width: np.ndarray
+    cov: np.ndarray
+    cut_bottom: np.ndarray
+    cut_top: np.ndarray
+    x_max: np.ndarray
+    tan_y: np.ndarray
+    sigma_bearing: np.ndarray
+    var_y_extra: np.ndarray
+
+    @property
+    def valid(self) -> np.ndarray:
+        return np.isfinite(self.x) & np.isfinite(self.lateral) & np.all(np.isfinite(self.cov), axis=(1, 2))
+
+
+@dataclass
+class Estimates:
+    """Per-track estimates, rows aligned with the ``Tracks`` given to ``update`` (all (N,) float).
+
+    range: nearest point's ego x (m); range_sigma: its std (m); lateral: centre
+    y (m, left +); half_width: half the y extent (m); range_rate /
+    lateral_rate: velocity relative to the (rotating) ego frame (m/s);
+    ground_vx / ground_vy: velocity over the ground in ego axes (m/s); accel:
+    along the motion (m/s^2, NaN unknown); yaw_rate: of the object's motion
+    (rad/s, NaN unknown); ttc: time to collision (s, inf when not closing).
+    """
+
+    range: np.ndarray
+    range_sigma: np.ndarray
+    lateral: np.ndarray
+    half_width: np.ndarray
+    range_rate: np.ndarray
+    lateral_rate: np.ndarray
+    ground_vx: np.ndarray
+    ground_vy: np.ndarray
+    accel: np.ndarray
+    yaw_rate: np.ndarray
+    ttc: np.ndarray
+
+    #: Fields of ``intent.labels.Kinematics`` this struct provides.
+    KINEMATICS_FIELDS = (
+        "range",
+        "lateral",
+        "half_width",
+        "range_rate",
+        "lateral_rate",
+        "ground_vx",
+        "ground_vy",
+        "accel",
+        "yaw_rate",
+    )
+    _DECIMALS = {"yaw_rate": 4, "ttc": 3}
+
+    @classmethod
+    def empty(cls, n: int = 0) -> Estimates:
+        """N rows of NaN (ttc NaN too)."""
+        return cls(**{f.name: np.full(n, np.nan) for f in fields(cls)})
+
+    def __len__(self) -> int:
+        return len(self.range)
+
+    def __getitem__(self, index: np.ndarray | slice | int) -> Estimates:
+        if isinstance(index, int | np.integer):
+            index = np.array([index])
+        return Estimates(**{f.name: getattr(self, f.name)[index] for f in fields(self)})
+
+    def kinematics_fields(self) -> dict[str, np.ndarray]:
+        """Keyword arguments for ``intent.labels.Kinematics`` (add ``class_id`` and ``age``).
+
+        perception never imports intent; intent builds the struct:
+        ``Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())``.
+        """
+        return {name: getattr(self, name) for name in self.KINEMATICS_FIELDS}
+
+    def to_dict(self) -> dict:
+        """Lists rounded to mm / mm/s (yaw rate 1e-4 rad/s); NaN and inf kept as floats."""
+        return {
+            f.name: np.round(getattr(self, f.name), self._DECIMALS.get(f.name, 3)).tolist()
+            for f in fields(self)
+        }
+
+
+def time_to_collision(rng: np.ndarray, range_rate: np.ndarray) -> np.ndarray:
+    """TTC (s): range / closing speed while closing, inf when opening, 0 at range <= 0, NaN for NaN."""
+    r = np.asarray(rng, dtype=np.float64)
+    closing = -np.asarray(range_rate, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ttc = np.where(closing > 1e-6, np.maximum(r, 0.0) / closing, np.inf)
+    ttc = np.where(r <= 0.0, 0.0, ttc)
+    return np.where(np.isnan(r) | np.isnan(closing), np.nan, ttc)
+
+
+def _rot(a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    return np.array([[c, -s], [s, c]])
+
+
+def _slope_fit(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Least-squares slopes of y (n, k) against t (n,)."""
+    tc = t - t.mean()
+    return tc @ (y - y.mean(axis=0)) / (tc @ tc)
+
+
+@dataclass(eq=False)
+class _TrackFilter:
+    """Kalman filter and history of one track."""
+
+    kf: KalmanFilter
+    class_id: int
+    last_update: float
+    half_width: float
+    updates: int = 1
+    history: deque = field(default_factory=deque)  # (t, vx, vy): ground velocity, world-fixed axes
+
+
+class Estimator:
+    """Per-track range, lateral offset, velocity and TTC (see the module docstring).
+
+    Args:
+        camera: the calibrated camera the boxes come from.
+        config: parameters; ``EstimatorConfig()`` when None.
+    """
+
+    def __init__(self, camera: CameraModel, config: EstimatorConfig | None = None) -> None:
+        self.camera = camera
+        self.config = config or EstimatorConfig()
+        cfg = self.config
+        table = [cfg.priors.get(name, cfg.default_prior) for name in CLASSES] + [cfg.default_prior]
+        self._prior = {
+            key: np.array([getattr(p, key) for p in table])
+            for key in ("height", "height_sigma", "width", "width_sigma", "accel_sigma", "jerk_sigma")
+        }
+        self._dim = 6 if cfg.motion_model == "ca" else 4
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every filter, the clock and the integrated ego yaw."""
+        self._filters: dict[int, _TrackFilter] = {}
+        self._t: float | None = None
+        self._speed = 0.0
+        self._yaw_rate = 0.0
+        self._ego_yaw = 0.0  # integrated ego heading since the first frame (rad)
+
+    @property
+    def num_filters(self) -> int:
+        """Number of filters in the bank (tracks seen within ``max_coast_s``)."""
+        return len(self._filters)
+
+    # ------------------------------------------------------------ priors
+    def _prior_of(self, class_id: np.ndarray, key: str) -> np.ndarray:
+        cid = np.asarray(class_id, dtype=np.int64)
+        idx = np.where((cid >= 0) & (cid < len(CLASSES)), cid, len(CLASSES))
+        return self._prior[key][idx]
+
+    # ------------------------------------------------------------ one frame
+    def measure(self, xyxy: np.ndarray, class_id: np.ndarray) -> Measurement:
+        """Position measurements (module docstring, steps 1-5) of boxes (N, 4) with classes (N,)."""
+        b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+        n = len(b)
+        cid = np.broadcast_to(np.asarray(class_id, dtype=np.int64).reshape(-1), (n,))
+        with np.errstate(all="ignore"):
+            return self._measure(b, cid)
+
+    def _measure(self, b: np.ndarray, cid: np.ndarray) -> Measurement:
+        cfg, cam = self.config, self.camera
+        n = len(b)
+        mx, my, mz = cam.mount
+        x1, y1, x2, y2 = b.T
+        w_px, h_px = x2 - x1, y2 - y1
+        ok = np.all(np.isfinite(b), axis=1) & (w_px > 0) & (h_px > 0) & np.all(np.abs(b) < 1e6, axis=1)
+        H, sH = self._prior_of(cid, "height"), self._prior_of(cid, "height_sigma")
+        W, sW = self._prior_of(cid, "width"), self._prior_of(cid, "width_sigma")
+        margin = cfg.edge_margin_px
+        cut_bottom = ok & (y2 >= cam.height - margin)
+        cut_top = ok & (y1 <= margin)
+        cut_left = ok & (x1 <= margin)
+        cut_right = ok & (x2 >= cam.width - margin)
+
+        sv = np.hypot(cfg.contact_sigma_px, cfg.edge_sigma_rel * h_px)  # one horizontal edge, px
+        su = np.hypot(cfg.contact_sigma_px, cfg.edge_sigma_rel * w_px) / np.sqrt(2.0)  # box centre, px
+        uc = 0.5 * (x1 + x2)
+        vb = np.minimum(y2, float(cam.height))  # bottom row, at most the image's
+        pix = np.stack(
+            [
+                np.stack([uc, vb], -1),
+                np.stack([uc, vb + _DV], -1),
+                np.stack([uc, vb - _DV], -1),
+                np.stack([uc, y1], -1),
+                np.stack([uc, y1 + _DV], -1),
+                np.stack([uc, y1 - _DV], -1),
+                np.stack([x1, vb], -1),
+                np.stack([x2, vb], -1),
+            ],
+            axis=1,
+        )  # (N, 8, 2)
+        pix = np.where(ok[:, None, None], pix, 0.0)
+        rays = cam.pixel_rays(pix) if n else np.zeros((0, 8, 3))
+        fwd = rays[..., 0] > 1e-9
+        slope = np.where(fwd, rays[..., 2] / rays[..., 0], np.nan)  # d_z / d_x
+        tan_y = np.where(fwd, rays[..., 1] / rays[..., 0], np.nan)  # d_y / d_x
+
+        # 1. ground contact (also the bound U of boxes cut at the bottom)
+        gp = cam.ground_points(pix[:, :3]) if n else np.zeros((0, 3, 3))
+        xg_all = gp[:, 0, 0]
+        dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
+        sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
+        g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > _MIN_DEPTH)
+        x_g = np.where(g_ok, xg_all, np.nan)
+        sig_g = np.where(g_ok, sig_g, np.nan)
+
+        # 2. height prior from the box height
+        s_b, s_t = slope[:, 0], slope[:, 3]
+        dsdv_b = np.abs(slope[:, 1] - slope[:, 2]) / (2.0 * _DV)
+        dsdv_t = np.abs(slope[:, 4] - slope[:, 5]) / (2.0 * _DV)
+        ds = s_t - s_b
+        xc_h = H / ds
+        sig_ds = np.hypot(dsdv_t * sv, dsdv_b * sv)
+        sig_h = xc_h * np.hypot(sH / H, sig_ds / ds)
+        h_ok = ok & ~cut_top & ~cut_bottom & (ds > 0) & (xc_h > _MIN_DEPTH) & np.isfinite(sig_h)
+        x_h = np.where(h_ok, mx + xc_h, np.nan)
+        sig_h = np.where(h_ok, sig_h, np.nan)
+
+        # 3. fusion by inverse variance
+        w_g = np.where(g_ok, 1.0 / sig_g**2, 0.0)
+        w_h = np.where(h_ok, 1.0 / sig_h**2, 0.0)
+        w_sum = w_g + w_h
+        x = np.where(w_sum > 0, (np.nan_to_num(x_g) * w_g + np.nan_to_num(x_h) * w_h) / w_sum, np.nan)
+        sig = np.where(w_sum > 0, 1.0 / np.sqrt(w_sum), np.nan)
+
+        # 4. boxes cut at the bottom: top ray on z = H, bounded by the bottom image row
+        x_max = np.full(n, np.nan)
+        if np.any(cut_bottom):
+            x, sig, x_h, sig_h, x_max = self._cut_bottom(
+                cut_bottom, cut_top, x, sig, x_h, sig_h, xg_all, s_t, dsdv_t, ds, sv, H, sH
+            )
+
+        # 5. lateral offset and half-width at the fused range
+        xc = x - mx
+        front = xc > _MIN_DEPTH
+        x = np.where(front, x, np.nan)
+        sig = np.where(front, sig, np.nan)
+        t_c, t_l, t_r = tan_y[:, 0], tan_y[:, 6], tan_y[:, 7]
+        y_c, y_l, y_r = my + xc * t_c, my + xc * t_l, my + xc * t_r
+        hw = 0.5 * (y_l - y_r)
+        side = cut_left ^ cut_right
+        hw = np.where(cut_left | cut_right, np.maximum(hw, 0.5 * W), hw)
+        lat = np.where(cut_left & ~cut_right, y_r + hw, y_c)
+        lat = np.where(cut_right & ~cut_left, y_l - hw, lat)
+        lat = np.where(np.isfinite(x), lat, np.nan)
+        tan_eff = np.where(side, (lat - my) / xc, t_c)
+        s_bear = su / cam.fx
+        extra = np.where(side, (0.5 * sW) ** 2, 0.0)
+        return Measurement(
+            x=x,
+            sigma=sig,
+            x_ground=x_g,
+            sigma_ground=sig_g,
+            x_height=x_h,
+            sigma_height=sig_h,
+            lateral=lat,
+            half_width=np.where(np.isfinite(lat), hw, np.nan),
+            cov=self._position_cov(xc, sig, tan_eff, s_bear, extra),
+            cut_bottom=cut_bottom,
+            cut_top=cut_top,
+            x_max=x_max,
+            tan_y=tan_eff,
+            sigma_bearing=s_bear,
+            var_y_extra=extra,
+        )
+
+    def _position_cov(
+        self, xc: np.ndarray, sig_x: np.ndarray, tan_y: np.ndarray, s_bear: np.ndarray, extra: np.ndarray
+    ) -> np.ndarray:
+        """(N, 2, 2) covariance of (x, y) = (x, m_y + (x - m_x) tan_y) (module docstring, step 5)."""
+        xc, sig_x, tan_y = np.atleast_1d(xc), np.atleast_1d(sig_x), np.atleast_1d(tan_y)
+        floor2 = self.config.position_sigma_floor**2
+        cov = np.empty((len(xc), 2, 2))
+        cov[:, 0, 0] = sig_x**2 + floor2
+        cov[:, 1, 1] = (tan_y * sig_x) ** 2 + (xc * s_bear) ** 2 + floor2 + extra
+        cov[:, 0, 1] = cov[:, 1, 0] = tan_y * sig_x**2
+        return cov
+
+    def _cut_bottom(
+        self,
+        cut_bottom: np.ndarray,
+        cut_top: np.ndarray,
+        x: np.ndarray,
+        sig: np.ndarray,
+        x_h: np.ndarray,
+        sig_h: np.ndarray,
+        x_row: np.ndarray,
+        s_t: np.ndarray,
+        dsdv_t: np.ndarray,
+        ds_vis: np.ndarray,
+        sv: np.ndarray,
+        H: np.ndarray,
+        sH: np.ndarray,
+    ) -> tuple[np.ndarray, ...]:
+        """Range of boxes whose foot is below the image (module docstring, step 4)."""
+        mx, mz = self.camera.mount[0], self.camera.mount[2]
+        x, sig, x_h, sig_h = x.copy(), sig.copy(), x_h.copy(), sig_h.copy()
+        i = np.flatnonzero(cut_bottom)
+        # top ray meets z = H
+        xc_t = (H[i] - mz) / s_t[i]
+        sig_t = np.hypot(sH[i] / s_t[i], xc_t / s_t[i] * dsdv_t[i] * sv[i])
+        t_ok = ~cut_top[i] & (xc_t > _MIN_DEPTH) & np.isfinite(sig_t)
+        # the foot is below the bottom row: x <= U
+        upper = np.where(np.isfinite(x_row[i]), x_row[i], np.inf)
+        h_bound = mx + (H[i] + 2.0 * sH[i]) / ds_vis[i]
+        upper = np.where(~cut_top[i] & (ds_vis[i] > 0) & (h_bound < upper), h_bound, upper)
+        lower = np.minimum(0.0, upper)
+        bounded = np.isfinite(upper)
+        width = np.maximum(upper - lower, 0.1)
+        xi = np.where(bounded, 0.5 * (lower + upper), np.nan)  # uniform on [lower, upper]
+        si = width / np.sqrt(12.0)
+        use_t = t_ok & bounded  # the top ray's Gaussian truncated to the bounds
+        if np.any(use_t):
+            mu, sd = mx + xc_t[use_t], sig_t[use_t]
+            a, bb = (lower[use_t] - mu) / sd, (upper[use_t] - mu) / sd
+            m_tr, v_tr = truncnorm.stats(a, bb, loc=mu, scale=sd, moments="mv")
+            m_tr, s_tr = np.asarray(m_tr, float), np.sqrt(np.asarray(v_tr, float))
+            good = np.isfinite(m_tr) & np.isfinite(s_tr)  # far outside: the nearer bound
+            xi[use_t] = np.where(good, m_tr, np.clip(mu, lower[use_t], upper[use_t]))
+            si[use_t] = np.where(good, np.maximum(s_tr, 1e-3), si[use_t])
+        only_t = t_ok & ~bounded
+        xi[only_t], si[only_t] = mx + xc_t[only_t], sig_t[only_t]
+        x[i], sig[i] = xi, si
+        x_h[i] = np.where(t_ok, mx + xc_t, np.nan)
+        sig_h[i] = np.where(t_ok, sig_t, np.nan)
+        x_max = np.full(len(x), np.nan)
+        x_max[i] = np.where(bounded, upper, np.nan)
+        return x, sig, x_h, sig_h, x_max
+
+    # ------------------------------------------------------------ tracking
+    def update(
+        self,
+        tracks: Tracks,
+        odometry: EgoOdometry | None,
+        t: float,
+        detections: Detections | None = None,
+    ) -> Estimates:
+        """Advance to time ``t`` (s) with this frame's tracks and ego odometry; return estimates.
+
+        Rows are aligned with ``tracks``. Rows with an invalid box (NaN,
+        degenerate, above the horizon) get NaN; lost tracks (``state`` LOST)
+        get their filter's prediction without an update. With ``detections``
+        (the ones given to the tracker this frame), a track matched this frame
+        is measured on its raw detection box (``det_index``) rather than on
+        the tracker's smoothed box, so the two filters do not stack their lag.
+        """
+        cfg = self.config
+        speed, yaw_rate = self._odometry(odometry)
+        t = float(t)
+        if not np.isfinite(t):
+            log.warning("non-finite time %r: estimates are NaN", t)
+            return Estimates.empty(len(tracks))
+        if self._t is not None:
+            dt = t - self._t
+            if dt < 0.0:
+                log.warning("time went back from %.3f to %.3f s: resetting the estimator", self._t, t)
+                self.reset()
+            elif dt > 0.0:
+                self._advance(dt, 0.5 * (speed + self._speed), 0.5 * (yaw_rate + self._yaw_rate))
+        self._t, self._speed, self._yaw_rate = t, speed, yaw_rate
+
+        n = len(tracks)
+        meas = self.measure(self._boxes(tracks, detections), tracks.class_id)
+        valid = meas.valid
+        state = np.full((n, self._dim), np.nan)
+        p_xx = np.full(n, np.nan)
+        hw = np.full(n, np.nan)
+        hist: list[deque | None] = [None] * n
+        to_world = _rot(self._ego_yaw)
+        for i in range(n):
+            tid, cls = int(tracks.track_id[i]), int(tracks.class_id[i])
+            trk = self._filters.get(tid)
+            if valid[i] and int(tracks.state[i]) != TrackState.LOST:
+                z, r = np.array([meas.x[i], meas.lateral[i]]), meas.cov[i]
+                if trk is not None and meas.cut_bottom[i]:
+                    z, r = self._cut_bottom_update(trk, meas, i)
+                if trk is None or not self._update(trk, z, r):
+                    trk = self._new_filter(z, r, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
+                    self._filters[tid] = trk
+                trk.class_id, trk.last_update = cls, t
+                a, hw_i = cfg.half_width_alpha, float(meas.half_width[i])
+                trk.half_width = hw_i if np.isnan(trk.half_width) else a * hw_i + (1 - a) * trk.half_width
+                if trk.updates >= cfg.settle_updates:
+                    v_w = to_world @ trk.kf.x[2:4, 0]
+                    trk.history.append((t, v_w[0], v_w[1]))
+                while trk.history and trk.history[0][0] < t - cfg.history_s - 1e-9:
+                    trk.history.popleft()
+            if trk is None or not (valid[i] or int(tracks.state[i]) == TrackState.LOST):
+                continue
+            state[i] = trk.kf.x[:, 0]
+            p_xx[i] = trk.kf.P[0, 0]
+            hw[i] = trk.half_width
+            hist[i] = trk.history if trk.updates >= cfg.settle_updates else None
+
+        for tid in [k for k, f in self._filters.items() if t - f.last_update > cfg.max_coast_s]:
+            del self._filters[tid]
+        return self._outputs(state, p_xx, hw, hist, speed, yaw_rate)
+
+    def _cut_bottom_update(self, trk: _TrackFilter, meas: Measurement, i: int) -> tuple[np.ndarray, np.ndarray]:
+        """Measurement for a running filter from a box cut at the bottom.
+
+        The top ray's error is mostly the object's height minus the prior: the
+        same every frame, so repeating it would not average out but drag the
+        filter. The box adds its bearing only (a huge range std along the ray)
+        and the filter's prediction carries the range; a prediction beyond the
+        bound x_max is pulled back to it.
+        """
+        mx, my = self.camera.mount[0], self.camera.mount[1]
+        x_pred, x_max = float(trk.kf.x[0, 0]), float(meas.x_max[i])
+        x, sig = (x_max, float(meas.sigma[i])) if x_pred > x_max else (x_pred, _BEARING_ONLY_SIGMA)
+        xc = max(x - mx, _MIN_DEPTH)
+        z = np.array([x, my + xc * meas.tan_y[i]])
+        r = self._position_cov(
+            np.array([xc]), np.array([sig]), meas.tan_y[i : i + 1], meas.sigma_bearing[i], meas.var_y_extra[i]
+        )[0]
+        return z, r
+
+    @staticmethod
+    def _boxes(tracks: Tracks, detections: Detections | None) -> np.ndarray:
+        """Boxes to measure: raw detection boxes where a track has one this frame."""
+        boxes = tracks.xyxy
+        if detections is None or len(tracks) == 0:
+            return boxes
+        di = tracks.det_index
+        raw = (di >= 0) & (di < len(detections))
+        if np.any(raw):
+            boxes = boxes.copy()
+            boxes[raw] = detections.xyxy[di[raw]]
+        return boxes
+
+    @staticmethod
+    def _odometry(odometry: EgoOdometry | None) -> tuple[float, float]:
+        if odometry is None:
+            return 0.0, 0.0
+        v, w = float(odometry.speed), float(odometry.yaw_rate)
+        if not (np.isfinite(v) and np.isfinite(w)):
+            log.warning("non-finite odometry (speed %r, yaw rate %r) taken as 0", v, w)
+            v, w = (v if np.isfinite(v) else 0.0), (w if np.isfinite(w) else 0.0)
+        return v, w
+
+    def _process(self, dt: float, class_id: int) -> tuple[np.ndarray, np.ndarray]:
+        """Transition F and process noise Q of the motion model over ``dt`` (s)."""
+        f = np.eye(self._dim)
+        f[0, 2] = f[1, 3] = dt  # p += v dt
+        if self._dim == 6:
+            f[2, 4] = f[3, 5] = dt  # v += a dt
+            f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
+        cid = np.array([class_id])
+        if self._dim == 4:
+            var = float(self._prior_of(cid, "accel_sigma")[0]) ** 2
+            q = Q_discrete_white_noise(2, dt=dt, var=var, block_size=2, order_by_dim=False)
+        else:
+            dens = float(self._prior_of(cid, "jerk_sigma")[0]) ** 2
+            q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
+        return f, q
+
+    def _advance(self, dt: float, speed: float, yaw_rate: float) -> None:
+        """Re-express every filter in the new ego frame, then predict it by ``dt``."""
+        theta = yaw_rate * dt
+        chord = speed * dt * np.sinc(theta / (2.0 * np.pi))
+        shift = chord * np.array([np.cos(theta / 2.0), np.sin(theta / 2.0)])
+        rot = _rot(-theta)
+        jac = np.kron(np.eye(self._dim // 2), rot)
+        self._ego_yaw += theta
+        models: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        for trk in self._filters.values():
+            kf = trk.kf
+            kf.x[:2, 0] -= shift
+            kf.x = jac @ kf.x
+            kf.P = jac @ kf.P @ jac.T
+            if trk.class_id not in models:
+                models[trk.class_id] = self._process(dt, trk.class_id)
+            f, q = models[trk.class_id]
+            kf.predict(F=f, Q=q)
+
+    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> bool:
+        """Kalman update; False (filter to restart) when the innovation fails the NIS gate."""
+        kf = trk.kf
+        innov = z - kf.x[:2, 0]
+        s = kf.P[:2, :2] + r
+        try:
+            nis = float(innov @ np.linalg.solve(s, innov))
+        except np.linalg.LinAlgError:
+            nis = np.inf
+        if not nis <= self.config.reinit_nis:
+            log.debug("track filter restarted: NIS %.1f", nis)
+            return False
+        kf.update(z.reshape(2, 1), R=r)
+        trk.updates += 1
+        return bool(np.all(np.isfinite(kf.x)) and np.all(np.isfinite(kf.P)))
+
+    def _new_filter(
+        self,
+        z: np.ndarray,
+        r: np.ndarray,
+        cls: int,
+        xyxy: np.ndarray,
+        velocity_px: np.ndarray,
+        t: float,
+        speed: float,
+        yaw_rate: float,
+    ) -> _TrackFilter:
+        """Filter at the measurement; velocity from the tracker's box rates (scale change)."""
+        cfg, cam = self.config, self.camera
+        xc = z[0] - cam.mount[0]
+        with np.errstate(all="ignore"):
+            h = xyxy[3] - xyxy[1]
+            vcx, vh = velocity_px[0], velocity_px[3]
+            rr = -xc * vh / h  # relative range rate from the scale change
+            tan_y = (z[1] - cam.mount[1]) / xc
+            lr = rr * tan_y - xc * vcx / cam.fx  # d/dt of (x - m_x) * tan_y
+        rel = np.array([rr, lr]) if np.isfinite(rr) and np.isfinite(lr) else np.zeros(2)
+        rel = np.clip(rel, -cfg.max_init_speed, cfg.max_init_speed)
+        ground = rel + np.array([speed - yaw_rate * z[1], yaw_rate * z[0]])
+        d = self._dim
+        kf = KalmanFilter(dim_x=d, dim_z=2)
+        kf.x = np.zeros((d, 1))
+        kf.x[:4, 0] = np.concatenate([z, ground])
+        kf.P = np.zeros((d, d))
+        kf.P[:2, :2] = r
+        kf.P[2:4, 2:4] = np.eye(2) * cfg.init_velocity_sigma**2
+        if d == 6:
+            kf.P[4:, 4:] = np.eye(2) * cfg.init_accel_sigma**2
+        kf.H = np.hstack([np.eye(2), np.zeros((2, d - 2))])
+        kf.R = r.copy()
+        return _TrackFilter(kf=kf, class_id=cls, last_update=t, half_width=np.nan)
+
+    def _outputs(
+        self,
+        state: np.ndarray,
+        p_xx: np.ndarray,
+        hw: np.ndarray,
+        hist: list[deque | None],
+        speed: float,
+        yaw_rate: float,
+    ) -> Estimates:
+        cfg = self.config
+        n = len(state)
+        x, y, vx, vy = state[:, :4].T
+        rr = vx - speed + yaw_rate * y
+        lr = vy - yaw_rate * x
+        accel, yaw = np.full(n, np.nan), np.full(n, np.nan)
+        to_world = _rot(self._ego_yaw)
+        for i, h in enumerate(hist):
+            if h is None or len(h) < cfg.min_history:
+                continue
+            arr = np.asarray(h)
+            tt, v_w = arr[:, 0], arr[:, 1:]
+            if tt[-1] - tt[0] <= 0:
+                continue
+            v_now = to_world @ state[i, 2:4]  # world-fixed axes
+            s_now = float(np.hypot(*v_now))
+            if s_now >= cfg.min_speed_accel:
+                a_vec = to_world @ state[i, 4:6] if self._dim == 6 else _slope_fit(tt, v_w)
+                accel[i] = float(a_vec @ v_now) / s_now
+            if s_now >= cfg.min_speed_yaw and np.hypot(v_w[:, 0], v_w[:, 1]).min() >= cfg.min_speed_yaw:
+                heading = np.unwrap(np.arctan2(v_w[:, 1], v_w[:, 0]))
+                yaw[i] = float(_slope_fit(tt, heading[:, None])[0])
+        return Estimates(
+            range=x,
+            range_sigma=np.sqrt(p_xx),
+            lateral=y,
+            half_width=hw,
+            range_rate=rr,
+            lateral_rate=lr,
+            ground_vx=vx,
+            ground_vy=vy,
+            accel=accel,
+            yaw_rate=yaw,
+            ttc=time_to_collision(x, rr),
+        )

@@ -1,0 +1,6 @@
+"""Scoring a run directory against its ground truth (entry point: ``tools.score``).
+
+Modules, one job each: ``io`` (read ``ticks.jsonl``, merge ``metrics.json``),
+``matching`` (IoU matching primitives), ``detection``, ``tracking``,
+``estimation`` (one ``metrics.json`` section each).
+"""

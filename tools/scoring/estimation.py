@@ -1,0 +1,95 @@
+"""The ``estimation`` section of ``metrics.json``: range, velocity and TTC errors of tracks.
+
+Matching, per frame: confirmed tracks vs every GT with a visible box, one-to-one
+Hungarian on IoU of track xyxy vs GT visible box, pairs with IoU >= 0.5 kept.
+Class-agnostic: the geometry of whatever a track follows is scored even if its
+class is wrong (classification is scored by ``detection``).
+
+Errors over the matched pairs (each metric with its count ``n_*``; a metric is
+null when its set is empty; null estimates are left out of the set):
+    range_rel_err_median -- median |r_hat - r| / r, r = GT range (nearest point x, m),
+        over *unoccluded* GT (visible_fraction >= UNOCCLUDED_MIN_VISIBLE_FRACTION
+        = 0.9, truncation < UNOCCLUDED_MAX_TRUNCATION = 0.05) at
+        RANGE_MIN_M <= r <= RANGE_MAX_M (5..50 m);
+    range_abs_err_p90 -- 90th percentile (linear interpolation) of |r_hat - r| (m),
+        same set;
+    speed_err_median -- median |g_hat - g| (m/s), Euclidean norm of the difference
+        of the ground-velocity vectors (ego axes), all pairs;
+    ttc_err_median -- median |TTC_hat - TTC| / TTC over pairs with
+        0 < GT TTC < TTC_MAX_S (5 s); a predicted "never" (1e9) counts as is.
+``n`` = matched pairs. Without tracks in the run every metric is null, counts 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tools.scoring.io import GTFrame, RunData, TrackFrame
+from tools.scoring.matching import class_iou, hungarian_match
+
+UNOCCLUDED_MIN_VISIBLE_FRACTION = 0.9
+UNOCCLUDED_MAX_TRUNCATION = 0.05
+RANGE_MIN_M = 5.0
+RANGE_MAX_M = 50.0
+TTC_MAX_S = 5.0
+RANGE_ABS_PERCENTILE = 90.0
+
+_FIELDS = ("r_hat", "r", "vf", "trunc", "v_hat", "v", "ttc_hat", "ttc")
+
+
+def match_pairs(gt: GTFrame, tracks: TrackFrame) -> dict[str, np.ndarray]:
+    """Estimate / truth arrays of one frame's matched (track, GT) pairs, keyed as ``_FIELDS``."""
+    trk = tracks[tracks.confirmed]
+    iou = class_iou(trk.xyxy, None, gt.visible, None)
+    t, g = hungarian_match(iou)
+    return {
+        "r_hat": trk.range[t], "r": gt.range[g],
+        "vf": gt.visible_fraction[g], "trunc": gt.truncation[g],
+        "v_hat": trk.ground_velocity[t], "v": gt.velocity[g],
+        "ttc_hat": trk.ttc[t], "ttc": gt.ttc[g],
+    }
+
+
+def _stat(values: np.ndarray, fn) -> float | None:
+    return float(fn(values)) if len(values) else None
+
+
+def null_estimation() -> dict:
+    """The section when the run has no tracks."""
+    return {
+        "range_rel_err_median": None, "range_abs_err_p90": None,
+        "speed_err_median": None, "ttc_err_median": None,
+        "n_range": 0, "n_speed": 0, "n_ttc": 0, "n": 0,
+    }
+
+
+def evaluate_estimation(run: RunData) -> dict:
+    """The ``estimation`` section (module docstring)."""
+    if run.tracks is None or len(run) == 0:
+        return null_estimation()
+    frames = [match_pairs(gt, trk) for gt, trk in zip(run.gt, run.tracks, strict=True)]
+    p = {k: np.concatenate([f[k] for f in frames]) for k in _FIELDS}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        range_err = np.abs(p["r_hat"] - p["r"])
+        in_range = (
+            (p["vf"] >= UNOCCLUDED_MIN_VISIBLE_FRACTION)
+            & (p["trunc"] < UNOCCLUDED_MAX_TRUNCATION)
+            & (p["r"] >= RANGE_MIN_M) & (p["r"] <= RANGE_MAX_M)
+            & np.isfinite(range_err)
+        )
+        rel = range_err[in_range] / p["r"][in_range]
+        abs_err = range_err[in_range]
+        speed = np.linalg.norm(p["v_hat"] - p["v"], axis=1)
+        speed = speed[np.isfinite(speed)]
+        ttc_sel = (p["ttc"] > 0) & (p["ttc"] < TTC_MAX_S) & np.isfinite(p["ttc_hat"])
+        ttc = np.abs(p["ttc_hat"][ttc_sel] - p["ttc"][ttc_sel]) / p["ttc"][ttc_sel]
+    return {
+        "range_rel_err_median": _stat(rel, np.median),
+        "range_abs_err_p90": _stat(abs_err, lambda x: np.percentile(x, RANGE_ABS_PERCENTILE)),
+        "speed_err_median": _stat(speed, np.median),
+        "ttc_err_median": _stat(ttc, np.median),
+        "n_range": len(rel),
+        "n_speed": len(speed),
+        "n_ttc": len(ttc),
+        "n": len(p["r"]),
+    }

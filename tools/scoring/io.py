@@ -1,0 +1,272 @@
+"""Read a run directory's ``ticks.jsonl`` into typed per-frame arrays; merge ``metrics.json``.
+
+``ticks.jsonl`` conventions (``tools/rundir.py``): ``null`` is read as NaN, and
++inf was written as 1e9, which is kept as is (a finite, huge number). A missing
+visible box (``null`` or four ``null`` s) becomes a NaN row. Frames are numbered
+by their position in the file (0-based), blank lines are skipped.
+
+``metrics.json`` is shared with other scorers (intent, danger, closed loop,
+expectations, timing): ``merge_sections`` updates only the keys of the
+sections it is given, and ``write_metrics`` replaces the file atomically
+(temporary file + ``os.replace``), so a reader never sees half a file.
+Concurrent read-modify-write by two scorers is not locked: run them in turn.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from perception.tracker import TrackState
+from sim.records import jsonable
+
+TICKS_FILE = "ticks.jsonl"
+METRICS_FILE = "metrics.json"
+
+_CONFIRMED = (TrackState.CONFIRMED.name.lower(), int(TrackState.CONFIRMED))
+
+
+class RunDirError(ValueError):
+    """Malformed run-directory content; ``str()`` is one line naming the file (and line)."""
+
+
+@dataclass(frozen=True)
+class GTFrame:
+    """Ground truth of one frame (N actors), ego frame, SI units."""
+
+    actor_id: np.ndarray  # (N,) int
+    class_id: np.ndarray  # (N,) int, -1 = static obstacle
+    visible: np.ndarray  # (N, 4) xyxy px, NaN when not visible
+    visible_fraction: np.ndarray  # (N,) in [0, 1]
+    truncation: np.ndarray  # (N,) share of the amodal box outside the image
+    range: np.ndarray  # (N,) m, nearest point's x
+    velocity: np.ndarray  # (N, 2) m/s, ground velocity in ego axes
+    ttc: np.ndarray  # (N,) s, 1e9 = never
+
+
+@dataclass(frozen=True)
+class DetFrame:
+    """Detections of one frame (M rows)."""
+
+    xyxy: np.ndarray  # (M, 4) px
+    score: np.ndarray  # (M,)
+    class_id: np.ndarray  # (M,) int
+
+
+@dataclass(frozen=True)
+class TrackFrame:
+    """Tracks of one frame (K rows); kinematics are NaN when the run has none."""
+
+    track_id: np.ndarray  # (K,) int
+    xyxy: np.ndarray  # (K, 4) px
+    class_id: np.ndarray  # (K,) int
+    score: np.ndarray  # (K,)
+    confirmed: np.ndarray  # (K,) bool, state == confirmed
+    range: np.ndarray  # (K,) m
+    ground_velocity: np.ndarray  # (K, 2) m/s, ground_vx, ground_vy
+    ttc: np.ndarray  # (K,) s, 1e9 = never
+
+    def __getitem__(self, index: np.ndarray) -> TrackFrame:
+        return TrackFrame(**{k: v[index] for k, v in self.__dict__.items()})
+
+
+@dataclass(frozen=True)
+class RunData:
+    """All frames of a run; ``tracks`` is None when no frame carries tracks."""
+
+    gt: list[GTFrame]
+    dets: list[DetFrame]
+    tracks: list[TrackFrame] | None
+
+    def __len__(self) -> int:
+        return len(self.gt)
+
+
+def _array(obj: dict, key: str, n: int, cols: int | None, where: str, required: bool) -> np.ndarray:
+    """``obj[key]`` as a float array of shape (n,) or (n, cols); NaN-filled if optional and absent."""
+    shape = (n,) if cols is None else (n, cols)
+    value = obj.get(key)
+    if value is None:
+        if required:
+            raise RunDirError(f"{where}.{key}: missing")
+        return np.full(shape, np.nan)
+    if not isinstance(value, list):
+        raise RunDirError(f"{where}.{key}: expected a list, got {type(value).__name__}")
+    if cols is not None:
+        value = [[None] * cols if row is None else row for row in value]
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise RunDirError(f"{where}.{key}: expected numbers (null allowed)") from None
+    if arr.size == 0 and n == 0:
+        return np.zeros(shape)
+    if arr.shape != shape:
+        what = f"{n}" if cols is None else f"{n}x{cols}"
+        raise RunDirError(f"{where}.{key}: expected {what} values, got shape {arr.shape}")
+    return arr
+
+
+def _length(obj: dict, key: str, where: str) -> int:
+    value = obj.get(key)
+    if not isinstance(value, list):
+        raise RunDirError(f"{where}.{key}: missing or not a list")
+    return len(value)
+
+
+def _ints(arr: np.ndarray, where: str) -> np.ndarray:
+    if not np.all(np.isfinite(arr)):
+        raise RunDirError(f"{where}: expected integers, found null")
+    return arr.astype(np.int64)
+
+
+def _parse_gt(obj: Any, where: str) -> GTFrame:
+    if not isinstance(obj, dict):
+        raise RunDirError(f"{where}: expected an object")
+    n = _length(obj, "actor_id", where)
+
+    def a(key: str, cols: int | None = None, req: bool = False) -> np.ndarray:
+        return _array(obj, key, n, cols, where, req)
+
+    return GTFrame(
+        actor_id=_ints(a("actor_id", req=True), f"{where}.actor_id"),
+        class_id=_ints(a("class_id", req=True), f"{where}.class_id"),
+        visible=a("visible", 4, req=True),
+        visible_fraction=a("visible_fraction", req=True),
+        truncation=a("truncation"),
+        range=a("range"),
+        velocity=a("velocity", 2),
+        ttc=a("ttc"),
+    )
+
+
+def _parse_dets(obj: Any, where: str) -> DetFrame:
+    if obj is None:
+        return DetFrame(np.zeros((0, 4)), np.zeros(0), np.zeros(0, dtype=np.int64))
+    if not isinstance(obj, dict):
+        raise RunDirError(f"{where}: expected an object or null")
+    n = _length(obj, "xyxy", where)
+    return DetFrame(
+        xyxy=_array(obj, "xyxy", n, 4, where, True),
+        score=_array(obj, "score", n, None, where, True),
+        class_id=_ints(_array(obj, "class_id", n, None, where, True), f"{where}.class_id"),
+    )
+
+
+def _parse_tracks(obj: Any, where: str) -> TrackFrame | None:
+    if obj is None:
+        return None
+    if not isinstance(obj, dict):
+        raise RunDirError(f"{where}: expected an object or null")
+    n = _length(obj, "track_id", where)
+
+    def a(key: str, cols: int | None = None, req: bool = False) -> np.ndarray:
+        return _array(obj, key, n, cols, where, req)
+
+    state = obj.get("state")
+    if not isinstance(state, list) or len(state) != n:
+        raise RunDirError(f"{where}.state: expected {n} values")
+    return TrackFrame(
+        track_id=_ints(a("track_id", req=True), f"{where}.track_id"),
+        xyxy=a("xyxy", 4, req=True),
+        class_id=_ints(a("class_id", req=True), f"{where}.class_id"),
+        score=a("score"),
+        confirmed=np.array([s in _CONFIRMED for s in state], dtype=bool),
+        range=a("range"),
+        ground_velocity=np.column_stack([a("ground_vx"), a("ground_vy")]),
+        ttc=a("ttc"),
+    )
+
+
+def _empty_tracks() -> TrackFrame:
+    z = np.zeros(0)
+    zi = np.zeros(0, dtype=np.int64)
+    return TrackFrame(zi, np.zeros((0, 4)), zi, z, np.zeros(0, dtype=bool), z, np.zeros((0, 2)), z)
+
+
+def load_run(run_dir: Path) -> RunData:
+    """Parse ``run_dir/ticks.jsonl``.
+
+    Raises:
+        FileNotFoundError / NotADirectoryError: no such run directory or no ticks file.
+        RunDirError: a line that is not a JSON object or whose arrays are malformed
+            (message ``<file>:<line>: ...``).
+    """
+    run_dir = Path(run_dir)
+    if not run_dir.exists():
+        raise FileNotFoundError(f"{run_dir}: no such run directory")
+    if not run_dir.is_dir():
+        raise NotADirectoryError(f"{run_dir}: not a directory")
+    path = run_dir / TICKS_FILE
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file (not a run directory?)")
+    gts: list[GTFrame] = []
+    dets: list[DetFrame] = []
+    tracks: list[TrackFrame | None] = []
+    with path.open("r", encoding="utf-8") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if not line.strip():
+                continue
+            where = f"{path}:{lineno}"
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError as e:
+                raise RunDirError(f"{where}: not valid JSON ({e.msg}, column {e.colno})") from None
+            if not isinstance(rec, dict):
+                raise RunDirError(f"{where}: expected a JSON object per line")
+            gts.append(_parse_gt(rec.get("ground_truth"), f"{where}: ground_truth"))
+            dets.append(_parse_dets(rec.get("detections"), f"{where}: detections"))
+            tracks.append(_parse_tracks(rec.get("tracks"), f"{where}: tracks"))
+    has_tracks = any(t is not None for t in tracks)
+    return RunData(
+        gt=gts,
+        dets=dets,
+        tracks=[t if t is not None else _empty_tracks() for t in tracks] if has_tracks else None,
+    )
+
+
+def read_metrics(run_dir: Path) -> dict:
+    """Existing ``metrics.json`` as a dict ({} if absent); RunDirError if it is not a JSON object."""
+    path = Path(run_dir) / METRICS_FILE
+    if not path.exists():
+        return {}
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise RunDirError(
+            f"{path}:{e.lineno}: not valid JSON ({e.msg}); fix or delete it"
+        ) from None
+    if not isinstance(data, dict):
+        raise RunDirError(f"{path}: expected a JSON object")
+    return data
+
+
+def merge_sections(existing: dict, sections: dict[str, dict]) -> dict:
+    """``existing`` with each section's keys updated (foreign keys, also inside sections, kept)."""
+    out = dict(existing)
+    for name, values in sections.items():
+        old = out.get(name)
+        out[name] = {**old, **values} if isinstance(old, dict) else dict(values)
+    return out
+
+
+def write_metrics(run_dir: Path, metrics: dict) -> Path:
+    """Write ``metrics.json`` atomically (NaN -> null); returns its path."""
+    path = Path(run_dir) / METRICS_FILE
+    text = json.dumps(jsonable(metrics), indent=2, allow_nan=False) + "\n"
+    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
+    fd, tmp = tempfile.mkstemp(prefix=".metrics-", suffix=".json", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

@@ -1,0 +1,67 @@
+"""IoU matching primitives shared by the detection, tracking and estimation scores.
+
+Constants:
+    IOU_THRESHOLD = 0.5 -- a prediction matches a ground-truth box when their
+        IoU is >= 0.5 (PASCAL VOC / MOTChallenge convention), everywhere in scoring.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from perception.geometry import iou_matrix
+
+IOU_THRESHOLD = 0.5
+
+
+def class_iou(
+    a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None
+) -> np.ndarray:
+    """IoU (N, M) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4), 0 where a box is NaN
+    or, when both class arrays are given, where the classes differ."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    iou = iou_matrix(np.nan_to_num(a), np.nan_to_num(b))
+    valid = np.all(np.isfinite(a), axis=1)[:, None] & np.all(np.isfinite(b), axis=1)[None, :]
+    if a_cls is not None and b_cls is not None:
+        valid &= np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :]
+    return np.where(valid, iou, 0.0)
+
+
+def greedy_match(iou: np.ndarray, order: np.ndarray, threshold: float = IOU_THRESHOLD) -> np.ndarray:
+    """Greedy matching of predictions (rows of ``iou``) visited in ``order`` (best
+    score first): each takes the free column with the highest IoU >= ``threshold``.
+
+    Returns:
+        (N,) matched column per row, -1 if unmatched.
+    """
+    n, m = iou.shape
+    match = np.full(n, -1, dtype=np.int64)
+    if m == 0:
+        return match
+    free = np.ones(m, dtype=bool)
+    for i in order:
+        cand = np.where(free & (iou[i] >= threshold), iou[i], -1.0)
+        j = int(np.argmax(cand))
+        if cand[j] >= threshold:
+            match[i] = j
+            free[j] = False
+    return match
+
+
+def hungarian_match(
+    iou: np.ndarray, threshold: float = IOU_THRESHOLD
+) -> tuple[np.ndarray, np.ndarray]:
+    """One-to-one matching maximising the summed IoU over pairs with IoU >= ``threshold``.
+
+    Returns:
+        (rows, cols) of the matched pairs.
+    """
+    if iou.size == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty
+    gain = np.where(iou >= threshold, iou, 0.0)
+    rows, cols = linear_sum_assignment(gain, maximize=True)
+    keep = gain[rows, cols] > 0.0
+    return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
