@@ -38,7 +38,8 @@ class GroundTruth:
     class_id: np.ndarray  # (N,) int, -1 for obstacles
     box3d: np.ndarray  # (N, 7) x, y, z (centre), length, width, height, yaw (ego frame)
     velocity: np.ndarray  # (N, 2) ground velocity in ego axes (m/s)
-    amodal: np.ndarray  # (N, 4) xyxy, projected 3D box, unclipped
+    amodal: np.ndarray  # (N, 4) xyxy, union of the projected part boxes (full silhouette), unclipped
+    projected: np.ndarray  # (N, 4) xyxy, the 8 projected corners of the 3D box, unclipped
     visible: np.ndarray  # (N, 4) xyxy, tight box of visible pixels (NaN if none)
     visible_fraction: np.ndarray  # (N,)
     pixels: np.ndarray  # (N,) visible pixel count (render) or -1
@@ -71,6 +72,7 @@ class GroundTruth:
             "box3d": r(self.box3d, 3),
             "velocity": r(self.velocity, 3),
             "amodal": r(self.amodal, 2),
+            "projected": r(self.projected, 2),
             "visible": r(self.visible, 2),
             "visible_fraction": r(self.visible_fraction, 3),
             "pixels": self.pixels.tolist(),
@@ -111,6 +113,52 @@ def occlusion_from_boxes(boxes: np.ndarray, depth: np.ndarray, width: int, heigh
     return np.where(box_area(b) > 0, frac, 0.0)
 
 
+def _rotate_z(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Vectors (N, 3) rotated by yaw (N,) about z."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1], v[:, 2]])
+
+
+def silhouette_boxes(
+    camera: CameraModel, shapes: list, phases: np.ndarray, base: np.ndarray, yaw: np.ndarray
+) -> np.ndarray:
+    """Amodal 2D boxes (N, 4): the box of the projections of every part's surface points.
+
+    ``base`` (N, 3) is each actor's local origin and ``yaw`` (N,) its heading in
+    the ego frame. Tighter than projecting the whole 3D box (a walking person's
+    box has empty corners): exact for box parts, 16-gon rims for cylinders.
+    Parts that cross the near plane use their bounding box clipped there, so
+    actors partly behind the camera are right too.
+    """
+    n = len(shapes)
+    if n == 0:
+        return np.zeros((0, 4))
+    phases = [float(ph) for ph in phases]
+    corners = [sh.part_corners(ph) for sh, ph in zip(shapes, phases, strict=True)]
+    points = np.concatenate([sh.part_points(ph) for sh, ph in zip(shapes, phases, strict=True)])
+    counts = np.array([len(c) for c in corners])
+    owner = np.repeat(np.arange(n), counts)
+
+    def to_ego(local: np.ndarray) -> np.ndarray:
+        c, s = np.cos(yaw[owner])[:, None], np.sin(yaw[owner])[:, None]
+        x = c * local[..., 0] - s * local[..., 1]
+        y = s * local[..., 0] + c * local[..., 1]
+        return np.stack([x, y, local[..., 2]], -1) + base[owner][:, None, :]
+
+    near = 0.05
+    boxes = camera.project_boxes(to_ego(np.concatenate(corners)), near=near)  # handles the near plane
+    pts_cam = camera.ego_to_camera(to_ego(points))
+    in_front = np.all(pts_cam[..., 2] > near, axis=1)
+    if in_front.any():
+        uv = camera.project_camera(pts_cam[in_front])
+        boxes[in_front] = np.column_stack([uv[..., 0].min(1), uv[..., 1].min(1), uv[..., 0].max(1), uv[..., 1].max(1)])
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    return np.column_stack([
+        np.fmin.reduceat(boxes[:, 0], starts), np.fmin.reduceat(boxes[:, 1], starts),
+        np.fmax.reduceat(boxes[:, 2], starts), np.fmax.reduceat(boxes[:, 3], starts),
+    ])
+
+
 def compute_ground_truth(
     world: World,
     camera: CameraModel,
@@ -127,32 +175,32 @@ def compute_ground_truth(
     """
     st = world.agent_states()
     ox, oy, oyaw = world.ego_pose()
-    origin = np.array([ox, oy])
-    rel = ego_frame(origin, oyaw, st.xy)
-    keep = (rel[:, 0] > -10.0) & (rel[:, 0] < GT_MAX_RANGE + 20.0)
-    idx = np.nonzero(keep)[0]
+    rel = ego_frame(np.array([ox, oy]), oyaw, st.xy)
+    idx = np.nonzero((rel[:, 0] > -10.0) & (rel[:, 0] < GT_MAX_RANGE + 20.0))[0]
+    shapes = [world.agents[i].identity.shape for i in idx]
+    phases = st.gait_phase[idx]
+    # Actor-local origin in the ego frame: on the surface it stands on (pavements are raised).
+    base = np.column_stack([rel[idx], world.layout.surface_height(st.xy[idx])])
+    ryaw = st.yaw[idx] - oyaw
+    # Tight 3D boxes at the current gait phase.
+    local = [sh.local_box(float(ph)) for sh, ph in zip(shapes, phases, strict=True)]
+    lc = np.array([c for c, _ in local]).reshape(-1, 3)
+    size = np.array([z for _, z in local]).reshape(-1, 3)
+    centre = base + _rotate_z(lc, ryaw)
+    corners = box_corners(centre, size, ryaw)
+    rng = corners[..., 0].min(axis=1)
+    ranged = rng < GT_MAX_RANGE
+    idx, base, ryaw, centre, size, corners, rng = (
+        idx[ranged], base[ranged], ryaw[ranged], centre[ranged], size[ranged], corners[ranged], rng[ranged]
+    )
+    shapes = [sh for sh, k in zip(shapes, ranged, strict=True) if k]
+    phases = phases[ranged]
     agents = [world.agents[i] for i in idx]
     n = len(idx)
-    # Tight 3D boxes (local frame) at the current gait phase.
-    local = [a.identity.shape.local_box(float(st.gait_phase[i])) for a, i in zip(agents, idx, strict=True)]
-    lc = np.array([c for c, _ in local]).reshape(n, 3)
-    size = np.array([s for _, s in local]).reshape(n, 3)
-    ryaw = st.yaw[idx] - oyaw
-    c, s = np.cos(ryaw), np.sin(ryaw)
-    centre = np.column_stack([
-        rel[idx, 0] + c * lc[:, 0] - s * lc[:, 1],
-        rel[idx, 1] + s * lc[:, 0] + c * lc[:, 1],
-        lc[:, 2],
-    ])
-    corners = box_corners(centre, size, ryaw)
-    rng = corners[..., 0].min(axis=1) if n else np.zeros(0)
-    half_w = (corners[..., 1].max(axis=1) - corners[..., 1].min(axis=1)) / 2.0 if n else np.zeros(0)
-    ranged = rng < GT_MAX_RANGE
-    idx, agents = idx[ranged], [a for a, k in zip(agents, ranged, strict=True) if k]
-    centre, size, ryaw, corners, rng, half_w = centre[ranged], size[ranged], ryaw[ranged], corners[ranged], rng[ranged], half_w[ranged]
-    n = len(idx)
+    half_w = (corners[..., 1].max(axis=1) - corners[..., 1].min(axis=1)) / 2.0
 
-    amodal = camera.project_boxes(corners)
+    projected = camera.project_boxes(corners)
+    amodal = silhouette_boxes(camera, shapes, phases, base, ryaw)
     trunc = truncation(amodal, camera.width, camera.height)
     ids = st.ids[idx]
 
@@ -216,6 +264,7 @@ def compute_ground_truth(
         box3d=np.column_stack([centre, size, ryaw]) if n else np.zeros((0, 7)),
         velocity=vg,
         amodal=amodal,
+        projected=projected,
         visible=visible,
         visible_fraction=vis_frac,
         pixels=pixels,

@@ -53,6 +53,17 @@ class RoadLayout:
     kerb_height: float = 0.15
     extra: dict = field(default_factory=dict)
 
+    def surface_height(self, xy: np.ndarray) -> np.ndarray:
+        """Height (m) of the surface under world points ``xy`` (N, 2): ``kerb_height``
+        on sidewalks, 0 elsewhere. Actors stand on it (renderer and ground truth alike)."""
+        pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        if not self.sidewalks:
+            return np.zeros(len(pts))
+        r = np.array([[s.x0, s.y0, s.x1, s.y1] for s in self.sidewalks])
+        x, y = pts[:, 0:1], pts[:, 1:2]
+        inside = (x >= r[:, 0]) & (x < r[:, 2]) & (y >= r[:, 1]) & (y < r[:, 3])
+        return np.where(inside.any(axis=1), self.kerb_height, 0.0)
+
     def bounds(self) -> np.ndarray:
         """[x0, y0, x1, y1] of everything in the layout (m)."""
         rects = list(self.asphalt) + list(self.sidewalks) + list(self.structure_zones)

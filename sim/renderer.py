@@ -7,13 +7,20 @@ DIRECT mode, no physics: every body has mass 0 and is posed each frame. Frames:
   centre on the ground) and its heading (rad, CCW from world +x).
 * actor pose ``(x, y, heading, gait_phase)``: world position of the actor-local origin
   (ground, footprint centre), heading (rad) and gait phase (rad, see ``sim.shapes``).
-  Actors standing on a sidewalk are lifted to its top (``surface_height``), so ground
+  Actors standing on a sidewalk are lifted to its top (``RoadLayout.surface_height``), so ground
   truth must add the same height to their boxes.
 
 The OpenGL projection is built from K, so a point ``CameraModel.project`` maps to
-pixel (u, v) is drawn in pixel (floor(u), floor(v)). Depth is metric z along the
-optical axis (m), ``far`` where nothing was hit. Segmentation holds actor ids, -1 for
-the static scene and the sky.
+pixel (u, v) is drawn in pixel (floor(u), floor(v)) by both backends (TinyRenderer
+samples pixel corners; its principal point is shifted half a pixel to match). Depth is
+metric z along the optical axis (m). Segmentation holds actor ids, -1 for the static
+scene and the sky. Beyond the modelled road an endless flat ground and a sky are
+composited from the camera model (exact depth, no geometry), ``far`` for the sky.
+
+Backends: "egl" (PyBullet's EGL plugin; with Mesa llvmpipe its depth buffer is 16-bit,
+hence the default ``near`` of 1 m, and only one instance may live per process) and
+"tiny" (TinyRenderer, CPU, float depth). Large triangles make llvmpipe rasterise depth
+wrongly, so every surface is tiled into pieces of at most 25 m.
 
 Repeated scenery (lane dashes, road patches, buildings, trees, lamp posts) is drawn by
 fixed pools of bodies re-posed every frame to cover the camera's view; item k of a row
@@ -47,15 +54,19 @@ _MARGIN = 30.0  # m of scenery kept around the camera's view sector
 _DASH_REACH = 150.0  # m; dashes further away are below a pixel wide
 _TILE = 25.0  # m; largest surface tile (llvmpipe mis-rasterises depth of larger triangles)
 _BASE_Z = -0.1  # m; bottom of road and pavement slabs
+# PyBullet clients holding the EGL plugin. The plugin keeps process-global GL state: a
+# second live instance leaves the first rendering empty frames, so only one may exist.
+_EGL_CLIENTS: set[int] = set()
 
 
 @dataclass
 class RenderResult:
     """One camera frame.
 
-    rgb: (H, W, 3) uint8 RGB. depth: (H, W) float32 metric depth along the optical
-    axis (m), ``far`` where nothing was hit. seg: (H, W) int32 actor id, -1 for the
-    static scene and the sky.
+    rgb: (H, W, 3) uint8 RGB.
+    depth: (H, W) float32 metric depth along the optical axis (m), capped at ``far``;
+        ``far`` for the sky.
+    seg: (H, W) int32 actor id, -1 for the static scene and the sky.
     """
 
     rgb: np.ndarray
@@ -103,18 +114,6 @@ def gl_view(camera: CameraModel, ego_pose: Sequence[float]) -> np.ndarray:
     v[:3, :3] = r_gl
     v[:3, 3] = -r_gl @ centre
     return v
-
-
-def surface_height(layout: RoadLayout, xy: np.ndarray) -> np.ndarray:
-    """Height (m) of the surface under world points ``xy`` (N, 2): ``kerb_height`` on
-    sidewalks, 0 elsewhere. Actors are drawn standing on it."""
-    pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-    if not layout.sidewalks:
-        return np.zeros(len(pts))
-    r = np.array([[s.x0, s.y0, s.x1, s.y1] for s in layout.sidewalks])
-    x, y = pts[:, 0:1], pts[:, 1:2]
-    inside = (x >= r[:, 0]) & (x < r[:, 2]) & (y >= r[:, 1]) & (y < r[:, 3])
-    return np.where(inside.any(axis=1), layout.kerb_height, 0.0)
 
 
 def _quat_z(a: float) -> list[float]:
@@ -275,11 +274,8 @@ class _Pool:
     ) -> None:
         self.client, self.row, self.place, self.view_reach = client, row, place, view_reach
         self.n_slots = max(1, min(n_slots, row.n))
-        self.bodies = [make_slot(j) for j in range(self.n_slots)]
+        self.bodies = [make_slot(j) for j in range(self.n_slots)]  # created hidden
         self.current: list[int | None] = [None] * self.n_slots
-        for j in range(self.n_slots):
-            for b in self.bodies[j]:
-                client.hide(b)
 
     def update(self, window: np.ndarray) -> None:
         k0, k1 = self.row.index_range(window)
@@ -389,6 +385,7 @@ class _Client:
 
     def close(self) -> None:
         if self.cid >= 0:
+            _EGL_CLIENTS.discard(self.cid)
             with _quiet_c_output(), contextlib.suppress(Exception):
                 if self.plugin >= 0:
                     p.unloadPlugin(self.plugin, physicsClientId=self.cid)
@@ -439,6 +436,60 @@ class _ActorBody:
     visible: bool = False
 
 
+# ---------------------------------------------------------------------- roadside structures
+_WALLS = [
+    (0.75, 0.7, 0.62),
+    (0.62, 0.6, 0.58),
+    (0.7, 0.5, 0.4),
+    (0.85, 0.83, 0.78),
+    (0.5, 0.52, 0.56),
+]
+
+
+def _building_links(g: np.random.Generator, max_depth: float) -> tuple[list[_Link], float]:
+    """A building (origin on the ground at its centre) and its depth (m).
+
+    A glazed core with wall slabs between the storeys and corner piers standing 0.08 m
+    proud: window bands on the long facades and no coplanar faces (EGL's depth is 16-bit).
+    """
+    bl, bd, bh = g.uniform(6.0, 11.0), min(g.uniform(6.0, 16.0), max_depth), g.uniform(4.0, 22.0)
+    wall = _rgba(_WALLS[int(g.integers(len(_WALLS)))], g, 0.05)
+    glass = _rgba((0.16, 0.2, 0.26), g, 0.03)
+    links = [_Link(p.GEOM_BOX, (bl / 2, bd / 2, bh / 2), glass, (0.0, 0.0, bh / 2))]
+    slab = (bl / 2 + 0.08, bd / 2 + 0.08)
+    floors = max(int(bh // 3.0), 1)
+    storey = bh / floors
+    for f in range(floors + 1):
+        z0 = _BASE_Z if f == 0 else f * storey - (0.35 if f < floors else 0.5)
+        z1 = 0.9 if f == 0 else min(f * storey + 0.45, bh + 0.3)
+        links.append(_Link(p.GEOM_BOX, (*slab, (z1 - z0) / 2), wall, (0.0, 0.0, (z0 + z1) / 2)))
+    for x in (-bl / 2 + 0.3, bl / 2 - 0.3):
+        links.append(_Link(p.GEOM_BOX, (0.45, slab[1], bh / 2), wall, (x, 0.0, bh / 2)))
+    return links, bd
+
+
+def _tree_links(g: np.random.Generator) -> list[_Link]:
+    """A trunk and a round crown (origin at the trunk's foot)."""
+    th, cr, tr = g.uniform(1.8, 3.2), g.uniform(1.2, 2.8), g.uniform(0.12, 0.22)
+    leaf = _rgba((0.18, 0.38, 0.14), g, 0.06)
+    return [
+        _Link(p.GEOM_CYLINDER, (tr, th), (0.35, 0.25, 0.16, 1.0), (0.0, 0.0, th / 2)),
+        _Link(p.GEOM_SPHERE, (cr,), leaf, (0.0, 0.0, th + 0.7 * cr)),
+    ]
+
+
+def _post_links(side: float, h: float = 7.0) -> list[_Link]:
+    """A lamp post whose arm reaches toward local +y (side = +1) or -y (side = -1)."""
+    grey = (0.45, 0.46, 0.48, 1.0)
+    return [
+        _Link(p.GEOM_CYLINDER, (0.08, h), grey, (0.0, 0.0, h / 2)),
+        _Link(p.GEOM_BOX, (0.05, 0.7, 0.04), grey, (0.0, side * 0.65, h - 0.05)),
+        _Link(
+            p.GEOM_BOX, (0.18, 0.12, 0.05), (0.92, 0.92, 0.85, 1.0), (0.0, side * 1.25, h - 0.12)
+        ),
+    ]
+
+
 # ---------------------------------------------------------------------- renderer
 class Renderer:
     """Renders the road layout and posed actors from a ``CameraModel`` with PyBullet.
@@ -447,8 +498,12 @@ class Renderer:
         camera: intrinsics and mount (ego frame).
         layout: static road layout (world frame).
         seed: seeds the roadside scenery and surface colours.
-        backend: "auto" (EGL if it works, else TinyRenderer), "egl" or "tiny".
-        near, far: clip planes (m); depth is ``far`` where nothing is hit.
+        backend: "auto" (EGL if it loads, renders a test frame and no other EGL
+            renderer is open in this process; else TinyRenderer), "egl" (RuntimeError
+            when unavailable) or "tiny". The resolved one is ``self.backend``.
+        near, far: clip planes (m) along the optical axis. ``near`` defaults to 1 m: the
+            camera sits behind the windscreen, and EGL's 16-bit depth buffer resolves
+            z^2 / (near * 65536) m (6 mm at 20 m with near = 1, 6 cm with 0.1).
     """
 
     def __init__(
@@ -488,6 +543,7 @@ class Renderer:
         )
         self._fan = np.linspace(-1.0, 1.0, 9) * min(half_fov + 0.05, np.pi)
         self._bg_rgb, self._bg_depth = self._background()
+        self._extents: dict[float, np.ndarray] = {}
         self._pools: list[_Pool] = []  # ground-level rows (kept in silhouettes)
         self._structures: list[_Pool] = []  # roadside structures (hidden in silhouettes)
         self._build_scene()
@@ -510,6 +566,11 @@ class Renderer:
             return "tiny"
 
     def _load_egl(self) -> None:
+        if _EGL_CLIENTS:
+            raise RuntimeError(
+                "another EGL renderer is open in this process (PyBullet's EGL plugin supports"
+                " one at a time); close it or use backend='tiny'"
+            )
         spec = importlib.util.find_spec("eglRenderer")
         if spec is None or spec.origin is None:
             raise RuntimeError("pybullet's eglRenderer module not found")
@@ -519,6 +580,7 @@ class Renderer:
             if plugin < 0:
                 raise RuntimeError("loading _eglRendererPlugin failed")
             self._client.plugin = plugin
+            _EGL_CLIENTS.add(self._client.cid)
             eye = np.eye(4).ravel().tolist()
             proj = gl_projection(self.camera, self.near, self.far).T.ravel().tolist()
             out = p.getCameraImage(
@@ -655,11 +717,14 @@ class Renderer:
         return int(np.ceil((chord + 2 * row.reach) / row.spacing)) + 2
 
     def _max_window_extent(self, reach: float) -> np.ndarray:
-        ext = np.zeros(2)
-        for h in np.linspace(0.0, 2 * np.pi, 73):
-            w = self._window((0.0, 0.0, h), reach)
-            ext = np.maximum(ext, w[2:] - w[:2])
-        return ext
+        """Largest (dx, dy) of the view window over all headings (m), memoised per reach."""
+        if reach not in self._extents:
+            ext = np.zeros(2)
+            for h in np.linspace(0.0, 2 * np.pi, 73):
+                w = self._window((0.0, 0.0, h), reach)
+                ext = np.maximum(ext, w[2:] - w[:2])
+            self._extents[reach] = ext
+        return self._extents[reach]
 
     def _add_dashes(self, row: _Row, width: float, rgba: Sequence[float]) -> None:
         yaw = _quat_z(row.yaw)
@@ -674,7 +739,7 @@ class Renderer:
 
     def _add_patches(self, i: int, r: Rect) -> None:
         """Sparse repair patches and stains on the asphalt (surface variation, motion cues)."""
-        row, _, depth = self._long_row(r, 13.0, 6.5, 3.0)
+        row, _, depth = self._long_row(r, 13.0, 6.5, 6.0)
         if row.n == 0 or depth < 2.0:
             return
 
@@ -712,105 +777,44 @@ class Renderer:
         cl = self._client
 
         buildings = depth >= 3.5  # room for a building 1.2 m back from the road side
-        sizes: dict[int, float] = {}
+        depths: dict[int, float] = {}  # building depth of each slot
 
         def make(j: int) -> list[int]:
             g = self._rng(6, i, j)
             bodies = []
             if buildings:
-                bl, bd, bh = (
-                    g.uniform(6.0, 11.0),
-                    min(g.uniform(6.0, 16.0), depth - 1.2),
-                    g.uniform(4.0, 22.0),
-                )
-                walls = [
-                    (0.75, 0.7, 0.62),
-                    (0.62, 0.6, 0.58),
-                    (0.7, 0.5, 0.4),
-                    (0.85, 0.83, 0.78),
-                    (0.5, 0.52, 0.56),
-                ]
-                wall = _rgba(walls[int(g.integers(len(walls)))], g, 0.05)
-                glass = _rgba((0.16, 0.2, 0.26), g, 0.03)
-                # A glazed core with wall slabs between the storeys standing 0.08 m proud:
-                # window bands on every facade and no coplanar faces (EGL has 16-bit depth).
-                links = [_Link(p.GEOM_BOX, (bl / 2, bd / 2, bh / 2), glass, (0.0, 0.0, bh / 2))]
-                slab = (bl / 2 + 0.08, bd / 2 + 0.08)
-                floors = max(int(bh // 3.0), 1)
-                storey = bh / floors
-                for f in range(floors + 1):
-                    z0 = _BASE_Z if f == 0 else f * storey - (0.35 if f < floors else 0.5)
-                    z1 = 0.9 if f == 0 else min(f * storey + 0.45, bh + 0.3)
-                    links.append(
-                        _Link(p.GEOM_BOX, (*slab, (z1 - z0) / 2), wall, (0.0, 0.0, (z0 + z1) / 2))
-                    )
-                for x in (-bl / 2 + 0.3, bl / 2 - 0.3):  # corner piers
-                    links.append(_Link(p.GEOM_BOX, (0.45, slab[1], bh / 2), wall, (x, 0.0, bh / 2)))
+                links, depths[j] = _building_links(g, depth - 1.2)
                 bodies.append(cl.body(links))
-                sizes[j] = bd
-            th, cr = g.uniform(1.8, 3.2), g.uniform(1.2, 2.8)
-            leaf = _rgba((0.18, 0.38, 0.14), g, 0.06)
-            trunk = _Link(
-                p.GEOM_CYLINDER,
-                (g.uniform(0.12, 0.22), th),
-                (0.35, 0.25, 0.16, 1.0),
-                (0.0, 0.0, th / 2),
-            )
-            bodies.append(
-                cl.body([trunk, _Link(p.GEOM_SPHERE, (cr,), leaf, (0.0, 0.0, th + 0.7 * cr))])
-            )
-            return bodies
+            return [*bodies, cl.body(_tree_links(g))]
 
         def place(k: int, j: int) -> list[Pose | None]:
             g = self._rng(7, i, k)
             u, along = g.random(), g.uniform(-1.0, 1.0)
             yaw = _quat_z(row.yaw)
-            if (
-                buildings and u < 0.5
-            ):  # building between the zone's far side and 1.2 m off its road side
-                bd = sizes[j]
+            if buildings and u < 0.5:  # between the far side and 1.2 m off the road side
+                bd = depths[j]
                 gap = g.uniform(0.0, max(depth - 1.2 - bd, 0.0))
                 c = row.point(k, along, -side * (depth / 2 - gap - bd / 2))
                 return [([c[0], c[1], 0.0], yaw), None]
-            if u < 0.8:  # tree 1.5 m inside the road side
+            tree: Pose | None = None
+            if u < 0.8:  # a tree 1.5 m inside the road side
                 c = row.point(k, 3.0 * along, side * max(depth / 2 - 1.5, 0.0))
-                return [None, ([c[0], c[1], 0.0], yaw)] if buildings else [([c[0], c[1], 0.0], yaw)]
-            return [None, None] if buildings else [None]
+                tree = ([c[0], c[1], 0.0], yaw)
+            return [None, tree] if buildings else [tree]
 
         self._structures.append(_Pool(cl, row, self._slots(row, self.far), make, place, self.far))
-
-        # lamp posts every 30 m, just inside the road side of the zone
-        prow = _Row(
-            row.origin + normal * side * (depth / 2 - 0.4),
-            row.direction,
-            row.length,
-            30.0,
-            10.0,
-            max(int((row.length - 10.0) // 30.0) + 1, 0),
-            1.5,
-            1.5,
-        )
-        if prow.n == 0:
+        # lamp posts every 30 m, 0.4 m inside the road side of the zone
+        n_posts = int((row.length - 10.0) // 30.0) + 1
+        if n_posts <= 0:
             return
-        grey = (0.45, 0.46, 0.48, 1.0)
-
-        def make_post(j: int) -> list[int]:
-            h = 7.0
-            arm = _Link(p.GEOM_BOX, (0.05, 0.7, 0.04), grey, (0.0, side * 0.65, h - 0.05))
-            lamp = _Link(
-                p.GEOM_BOX,
-                (0.18, 0.12, 0.05),
-                (0.92, 0.92, 0.85, 1.0),
-                (0.0, side * 1.25, h - 0.12),
-            )
-            return [
-                cl.body([_Link(p.GEOM_CYLINDER, (0.08, h), grey, (0.0, 0.0, h / 2)), arm, lamp])
-            ]
+        origin = row.origin + normal * side * (depth / 2 - 0.4)
+        prow = _Row(origin, row.direction, row.length, 30.0, 10.0, n_posts, 1.5, 1.5)
 
         def place_post(k: int, j: int) -> list[Pose | None]:
             c = prow.point(k)
             return [([c[0], c[1], 0.0], _quat_z(prow.yaw))]
 
+        make_post = lambda j: [cl.body(_post_links(side))]  # noqa: E731
         self._structures.append(
             _Pool(cl, prow, self._slots(prow, self.far), make_post, place_post, self.far)
         )
@@ -842,7 +846,7 @@ class Renderer:
 
     def ground_z(self, xy: np.ndarray) -> np.ndarray:
         """Surface height (m) under world points ``xy`` (N, 2) where actors are drawn."""
-        return surface_height(self.layout, xy)
+        return self.layout.surface_height(xy)
 
     def _place_actors(self, actors: Mapping[int, Sequence[float]]) -> None:
         unknown = set(actors) - set(self._actors)
@@ -859,7 +863,7 @@ class Renderer:
         poses = np.array(
             [[float(v) for v in actors[i][:4]] for i in ids], dtype=np.float64
         ).reshape(-1, 4)
-        z = surface_height(self.layout, poses[:, :2])
+        z = self.layout.surface_height(poses[:, :2])
         for aid, (x, y, heading, phase), zi in zip(ids, poses, z, strict=True):
             a = self._actors[aid]
             p.resetBasePositionAndOrientation(

@@ -65,6 +65,21 @@ class Part:
     tilt: float = 0.0
 
 
+_UNIT_CORNERS = np.array(
+    [[sx, sy, sz] for sz in (-1.0, 1.0) for sy in (-1.0, 1.0) for sx in (-1.0, 1.0)]
+)
+
+
+_ANG = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
+_RIM = np.stack([np.cos(_ANG), np.sin(_ANG), np.ones(16)], axis=1)
+_GOLD = np.pi * (3.0 - np.sqrt(5.0))
+_SZ = 1.0 - (np.arange(32) + 0.5) / 16.0
+_SPHERE = np.stack(
+    [np.sqrt(1 - _SZ**2) * np.cos(_GOLD * np.arange(32)), np.sqrt(1 - _SZ**2) * np.sin(_GOLD * np.arange(32)), _SZ],
+    axis=1,
+)
+
+
 @dataclass(frozen=True)
 class ActorShape:
     """A class/subtype's compound shape and its gait.
@@ -149,6 +164,50 @@ class ActorShape:
         lo = (centres - ext).min(axis=0)
         hi = (centres + ext).max(axis=0)
         return (lo + hi) / 2.0, hi - lo
+
+    def part_corners(self, gait_phase: float = 0.0) -> np.ndarray:
+        """Corners (P, 8, 3) of each part's own bounding box at ``gait_phase`` (rad), local frame.
+
+        Boxes are exact; a cylinder's box has its half-length along the axis and
+        its radius across; a sphere's is a cube. The union of their projections
+        bounds the rendered silhouette (exactly for box parts).
+        """
+        th = self.swing_angles(gait_phase)
+        centres, pitch = self._centres(th), th + self._tilt
+        h = self._half
+        cyl = self._axis * h[:, 2:3] + (1.0 - self._axis) * h[:, 0:1]
+        half = np.where((self._kind == 1)[:, None], cyl, h)
+        half = np.where((self._kind == 2)[:, None], h[:, 0:1], half)
+        local = _UNIT_CORNERS[None] * half[:, None, :]  # (P, 8, 3)
+        c, s = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
+        x = c * local[..., 0] + s * local[..., 2]
+        z = -s * local[..., 0] + c * local[..., 2]
+        return np.stack([x, local[..., 1], z], axis=-1) + centres[:, None, :]
+
+    def part_points(self, gait_phase: float = 0.0) -> np.ndarray:
+        """Surface points (P, 32, 3) of each part at ``gait_phase`` (rad), local frame.
+
+        Boxes: their 8 corners (repeated); cylinders: two rims of 16 points;
+        spheres: 32 points spread over the surface. Their projections bound the
+        rendered silhouette much more tightly than the parts' bounding boxes.
+        """
+        th = self.swing_angles(gait_phase)
+        centres, pitch = self._centres(th), th + self._tilt
+        h = self._half
+        # Cylinder rims in a frame whose z is the cylinder axis, then mapped onto the part's axis.
+        rim = np.concatenate([_RIM, _RIM * [1.0, 1.0, -1.0]])  # (32, 3), unit radius / half-length
+        cyl = rim[None] * np.stack([h[:, 0], h[:, 0], h[:, 2]], axis=1)[:, None, :]
+        ax = self._axis
+        cyl = np.where(ax[:, None, 0:1] > 0.5, cyl[..., [2, 0, 1]], cyl)  # axis x
+        cyl = np.where(ax[:, None, 1:2] > 0.5, cyl[..., [1, 2, 0]], cyl)  # axis y
+        box = np.tile(_UNIT_CORNERS, (4, 1))[None] * h[:, None, :]
+        sph = _SPHERE[None] * h[:, 0:1, None]
+        kind = self._kind[:, None, None]
+        local = np.where(kind == 0, box, np.where(kind == 1, cyl, sph))
+        c, s = np.cos(pitch)[:, None], np.sin(pitch)[:, None]
+        x = c * local[..., 0] + s * local[..., 2]
+        z = -s * local[..., 0] + c * local[..., 2]
+        return np.stack([x, local[..., 1], z], axis=-1) + centres[:, None, :]
 
     def local_box(self, gait_phase: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Tight axis-aligned box of all parts at ``gait_phase`` (rad), local frame.

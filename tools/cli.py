@@ -161,7 +161,7 @@ def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML
 @user_errors
 def bench_sim(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario with traffic")] = Path("scenarios/following_traffic.yaml"),
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic")] = Path("scenarios/highway_traffic.yaml"),
     ticks: Annotated[int, typer.Option(help="ticks per case")] = 400,
     frames: Annotated[int, typer.Option(help="rendered frames per resolution")] = 30,
 ) -> None:
