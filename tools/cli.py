@@ -93,6 +93,49 @@ def run(
 
 @app.command()
 @user_errors
+def suite(
+    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML")],
+    out: Annotated[Path, typer.Option("--out", help="suite directory to write")],
+    workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
+) -> None:
+    """Run and score every scenario of a suite; writes summary.json."""
+    from tools.suite import load_suite, run_suite
+
+    _, paths = load_suite(suite_file)
+    with _progress() as prog:
+        task = prog.add_task(suite_file.stem, total=len(paths))
+        summary = run_suite(suite_file, out, workers=workers, render=render,
+                            progress=lambda name: prog.update(task, advance=1, description=name))
+    print_suite(summary)
+
+
+def print_suite(summary: dict) -> None:
+    from rich.table import Table
+
+    cols = (("detection", "recall"), ("detection", "precision"), ("tracking", "mota"), ("tracking", "idf1"),
+            ("estimation", "range_rel_err_median"), ("estimation", "speed_err_median"),
+            ("estimation", "ttc_err_median"))
+    table = Table(title=f"suite {summary['suite']}")
+    table.add_column("scenario")
+    for sec, key in cols:
+        table.add_column(f"{sec[:5]}.{key}", justify="right")
+    table.add_column("collision")
+
+    def fmt(v: object) -> str:
+        return "-" if v is None else f"{v:.3f}" if isinstance(v, float) else str(v)
+
+    rows = [(n, r["metrics"], r["summary"]["collisions"]) for n, r in summary["runs"].items()]
+    rows.append(("TOTAL", summary["totals"], None))
+    for name, m, hits in rows:
+        hit = "-" if not hits else f"{hits[0]['name']} {hits[0]['ego_speed']:.1f} m/s"
+        table.add_row(name, *[fmt(m.get(s, {}).get(k)) for s, k in cols],
+                      hit if hits is not None else str(summary["totals"]["closed_loop"]["collisions"]))
+    Console(width=max(140, Console().width)).print(table)
+
+
+@app.command()
+@user_errors
 def render(
     scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
     out: Annotated[Path, typer.Option("--out", help="directory for PNG frames")],

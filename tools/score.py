@@ -27,7 +27,16 @@ from rich.table import Table
 
 from tools.scoring.detection import evaluate_detection
 from tools.scoring.estimation import evaluate_estimation
-from tools.scoring.io import RunDirError, load_run, merge_sections, read_metrics, write_metrics
+from tools.scoring.io import (
+    RunData,
+    RunDirError,
+    concat_runs,
+    load_run,
+    merge_sections,
+    read_metrics,
+    write_metrics,
+)
+from tools.scoring.timing import load_timings, timing_section
 from tools.scoring.tracking import evaluate_tracking
 
 log = logging.getLogger(__name__)
@@ -58,14 +67,34 @@ _TABLE_ROWS = (
 )
 
 
-def compute_sections(run_dir: Path) -> dict[str, dict]:
-    """The ``detection``, ``tracking`` and ``estimation`` sections of a run (nothing written)."""
-    run = load_run(run_dir)
+def evaluate(run: RunData) -> dict[str, dict]:
+    """The ``detection``, ``tracking`` and ``estimation`` sections of loaded run data."""
     return {
         "detection": evaluate_detection(run),
         "tracking": evaluate_tracking(run),
         "estimation": evaluate_estimation(run),
     }
+
+
+def compute_sections(run_dir: Path) -> dict[str, dict]:
+    """The sections of a run directory (nothing written), with ``timing`` when recorded."""
+    sections = evaluate(load_run(run_dir))
+    timings = load_timings(run_dir)
+    if timings:
+        sections["timing"] = timing_section(timings)
+    return sections
+
+
+def score_suite(run_dirs: list[Path]) -> dict[str, dict]:
+    """Suite totals: every section recomputed over all runs' frames together."""
+    sections = evaluate(concat_runs([load_run(d) for d in run_dirs]))
+    stages: dict[str, list[float]] = {}
+    for d in run_dirs:
+        for k, v in load_timings(d).items():
+            stages.setdefault(k, []).extend(v)
+    if stages:
+        sections["timing"] = timing_section(stages)
+    return sections
 
 
 def score_run(run_dir: Path) -> dict:

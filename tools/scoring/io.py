@@ -270,3 +270,28 @@ def write_metrics(run_dir: Path, metrics: dict) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+def concat_runs(runs: list[RunData]) -> RunData:
+    """One long run made of several, with actor and track ids kept apart (offset per run).
+
+    Scoring the concatenation gives suite totals whose counts are the sums over
+    the runs and whose rates and medians are recomputed over all frames.
+    """
+    offset = 10**6
+
+    def shift_gt(g: GTFrame, k: int) -> GTFrame:
+        return GTFrame(**{**g.__dict__, "actor_id": g.actor_id + k * offset})
+
+    def shift_tracks(t: TrackFrame, k: int) -> TrackFrame:
+        return TrackFrame(**{**t.__dict__, "track_id": t.track_id + k * offset})
+
+    any_tracks = any(r.tracks is not None for r in runs)
+    gts, dets, tracks = [], [], []
+    for k, r in enumerate(runs):
+        gts += [shift_gt(g, k) for g in r.gt]
+        dets += r.dets
+        if any_tracks:
+            frames = r.tracks if r.tracks is not None else [_empty_tracks() for _ in r.gt]
+            tracks += [shift_tracks(t, k) for t in frames]
+    return RunData(gt=gts, dets=dets, tracks=tracks if any_tracks else None)
