@@ -17,6 +17,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check .
+	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --baseline scenarios/suites/smoke.baseline.json
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)

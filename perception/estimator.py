@@ -15,12 +15,18 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
 (``camera.pixel_rays``) and s(v) = d_z / d_x its slope in column u_c.
 
 1. Ground contact. The lowest image point of an object standing on a flat
-   road is its nearest bottom edge, so the bottom-centre pixel (u_c, y2)
-   back-projected onto z = 0 (``camera.ground_points``) gives x_g. Its std is
-   sigma_g = |dx_g/dv| * sigma_v with sigma_v^2 = sigma_px^2 + (k h_px)^2 +
-   (f_y sigma_pitch)^2 (fixed pixel noise, edge jitter proportional to the box
-   height h_px, road slope / pitching); dx_g/dv ~ (x_g - m_x)^2 / (f_y m_z), so
-   sigma_g grows as r^2 / (f h).
+   road is where it touches the road (a vehicle's wheels, see step 6), so
+   the bottom-centre pixel (u_c, y2) back-projected onto z = 0
+   (``camera.ground_points``) gives x_g. Its std is sigma_g = |dx_g/dv| *
+   sigma_v with sigma_v^2 = sigma_px^2 + (k h_px)^2 + (f_y sigma_pitch)^2
+   (fixed pixel noise, edge jitter proportional to the box height h_px --
+   ``edge_sigma_rel`` 0.05, the ``gt`` detector's default ``box_sigma`` --
+   road slope / pitching); dx_g/dv ~ (x_g - m_x)^2 / (f_y m_z), so sigma_g
+   grows as r^2 / (f h). A contact above the road plane by z (a kerb, a
+   pavement: 0.15 m in the simulator) puts x_g too far by z (x_g - m_x) / m_z;
+   the class's ``contact_height_sigma`` (pedestrians 0.1 m) adds that spread
+   to sigma_g, so at range the height cue weighs more for classes found on
+   pavements. Without a road model the bias itself stays.
 2. Height prior H +- sigma_H of the class. A vertical face at x whose foot
    and top project to rows y2 and y1 obeys H = (x - m_x) (s(y1) - s(y2)), so
    x_h = m_x + H / ds -- the exact, pitch-aware form of r_cam ~ f_y H / h_px.
@@ -36,7 +42,7 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
    x <= m_x + (H + 2 sigma_H) / ds_visible). The estimate is the mean and
    std of N(x_t, sigma_t^2) truncated to [min(0, U), U] (uniform on it when
    x_t is undefined, e.g. H <= m_z). Cut at both ends: the uniform only.
-5. Lateral: the bottom-centre ray at the fused x, y = m_y + (x - m_x) d_y/d_x;
+5. Lateral: the bottom-centre ray at the fused contact x, y = m_y + (x - m_x) d_y/d_x;
    the rays through the two bottom corners give the y extent and half_width.
    For an object wholly to one side the inner box edge comes from its far
    face, so the inner edge is placed conservatively close to the ego's axis
@@ -45,13 +51,32 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
    plus the class half-width prior. Measurement covariance: sigma_y^2 =
    (t sigma_x)^2 + ((x - m_x) sigma_u / f_x)^2 + floor^2, cov_xy = t sigma_x^2,
    t = d_y/d_x.
+6. Nearest face (done per cue before the fusion of step 3). ``range`` is the
+   nearest point's x, but the box bottom shows the ground contact: a car seen
+   from behind touches the road with its rear wheels, ``contact_offset``
+   (its rear overhang, 0.95 m) behind its bumper; a cyclist's wheel touches
+   about a wheel radius behind its front; a pedestrian's feet are its nearest
+   point (0). Seen side-on the offset is ``contact_offset_side``; in between
+   off = contact_offset |cos psi| + contact_offset_side |sin psi|, psi the
+   heading from the filter's ground velocity above ``heading_min_speed``
+   (else the road's direction, psi = 0). Very close, the face's lower edge
+   (bumper, ``clearance`` c above the road) is lower in the image than the
+   wheels, so the ground cue maps to the face as
+   x = max(x_g - off, m_x + (x_g - m_x) (m_z - c) / m_z). The height cue
+   assumed foot and top at one x; with the foot off behind a face of height
+   H it reads about off m_z / H too far: x = max(x_h - off m_z / H,
+   m_x + (x_h - m_x) (H - c) / H). The offset's own uncertainty
+   (``contact_offset_rel_sigma`` of the correction) is added to each cue's
+   std. Real monocular estimators carry the same per-class priors; the
+   values follow typical vehicles (and the simulator's shapes: sedan / SUV
+   rear overhang 0.21 L, truck 1.6 m, bus 3.0 m). Boxes cut at the bottom
+   keep the top ray's estimate (step 4), which already refers to the face.
 
-Tracking: one Kalman filter per track_id (filterpy)
-----------------------------------------------------
-State X = [x, y, v_x, v_y, a_x, a_y] (``motion_model="ca"``, default) or
-[x, y, v_x, v_y] (``"cv"``): the measured point in the *current* ego frame
-(m) and the object's velocity (m/s) and acceleration (m/s^2) **over the
-ground**, in the current ego axes. Keeping ground motion (not motion relative
+Tracking: one motion filter per track_id
+----------------------------------------
+State X = [x, y, v_x, v_y, a_x, a_y]: the nearest face's point in the
+*current* ego frame (m) and the object's velocity (m/s) and acceleration
+(m/s^2) **over the ground**, in the current ego axes. Keeping ground motion (not motion relative
 to the ego) in the state makes a stationary object a constant state while the
 ego brakes or turns. Ego motion between frames (dt, mean odometry speed v and
 yaw rate w over the interval, the origin moving at (v, 0) as the ground truth
@@ -66,27 +91,46 @@ then predicted with (I = 2x2 identity; sigma_a, q_j per class)
     ca: F = [[I, dt I, dt^2/2 I], [0, I, dt I], [0, 0, I]],
         Q = continuous white-noise jerk, spectral density q_j = jerk_sigma^2
             (filterpy ``Q_continuous_white_noise``);
-    cv: F = [[I, dt I], [0, I]],
+    cv: F = [[I, dt I, 0], [0, I, 0], [0, 0, 0]] (no acceleration),
         Q = sigma_a^2 [[dt^4/4 I, dt^3/2 I], [dt^3/2 I, dt^2 I]] (piecewise white acceleration),
 
-and updated with z = (x, y) of steps 3-5, H = [I 0 ...] and R = its 2x2
-covariance. With ``detections``, a track matched this frame is measured on
+and updated with z = (x, y) of steps 3-6, H = [I 0 0] and R = its 2x2
+covariance. ``motion_model``:
+
+    "cv" / "ca": one Kalman filter with that model;
+    "imm" (default): an interacting multiple model filter (Blom & Bar-Shalom)
+        of a *quiet* cv model (sigma_a times ``imm_quiet_accel_scale``) and
+        the ca model (manoeuvres: braking, accelerating from rest, cutting
+        in). Markov switching with mean sojourn ``imm_quiet_s`` /
+        ``imm_manoeuvre_s``; the quiet model keeps the acceleration's
+        variance open (sigma_a^2) so mixing does not pin the ca model's
+        acceleration to 0. Output: the moment-matched mixture. The measured
+        box noise (5 % of the box per edge, white) makes one frame's range
+        good to ~5 %, so a deceleration takes a few frames to stand out; the
+        IMM follows a braking lead (TTC) much better than cv, and settles on
+        steady targets much better than ca.
+
+The filters are plain numpy (``_MotionFilter``; Joseph-form updates). With ``detections``, a track matched this frame is measured on
 its raw detection box, not on the tracker's smoothed one (no stacked lag).
 A box cut at the bottom updates a running filter with its bearing only (the
 range std set to 100 m along the ray; the height prior's error is the same
 every frame and would drag the filter), and pulls a prediction beyond the
 bound back to x_max. A measurement with NIS > ``reinit_nis`` restarts the
-filter. New filters take their relative velocity from the tracker's box rates
-(range rate = -(x - m_x) (dh/dt) / h from the scale change, lateral from
-d(u)/dt) with std ``init_velocity_sigma``, zero acceleration with std
-``init_accel_sigma``. Outputs (the ground truth's formulas):
+filter. New filters start at the measurement with the class's prior on the
+ground velocity, N(0, ``speed_sigma``^2) per axis (pedestrians 1.5 m/s, cars
+12 m/s), zero acceleration with std ``init_accel_sigma`` -- a broad prior the
+first measurements quickly override, where the tracker's box rates after two
+or three noisy boxes are not a usable velocity (the scale change of a 10 px
+box with 5 % edge noise says nothing about its range rate at 50 m);
+``init_from_box_rates`` fuses them in anyway, with std
+``init_velocity_sigma``. Outputs (the ground truth's formulas):
 
     range_rate = v_x - v_ego + w y,   lateral_rate = v_y - w x,
     ground_vx, ground_vy = v_x, v_y,
     ttc = range / -range_rate while closing, inf otherwise, 0 at range <= 0.
 
 accel: the filter's acceleration (ca) or the slope of a least-squares line
-through the filtered ground velocity over the last ``history_s`` (cv),
+through the filtered ground velocity over the last ``history_s`` (cv, imm),
 projected on the direction of motion; yaw_rate: slope of a line through the
 unwrapped heading of the ground velocity (world-fixed axes, integrating the
 ego's yaw) over ``history_s``. Both are NaN until the filter has had
@@ -106,7 +150,6 @@ from typing import Literal
 
 import numpy as np
 from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
-from filterpy.kalman import KalmanFilter
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.stats import truncnorm
 
@@ -134,20 +177,42 @@ class ClassPrior(BaseModel):
     jerk_sigma: float = Field(
         3.0, gt=0, description="'ca' model: sqrt of the white-noise jerk spectral density (m/s^2.5)"
     )
+    contact_offset: float = Field(
+        0.0, ge=0, description="x from the nearest face to the ground contact the box bottom shows, seen end-on (m)"
+    )
+    contact_offset_side: float = Field(0.0, ge=0, description="the same, seen side-on (m)")
+    clearance: float = Field(
+        0.0, ge=0, description="height of the nearest face's lower edge (bumper, wheel axle) above the road (m)"
+    )
+    contact_height_sigma: float = Field(
+        0.0, ge=0, description="std of the contact's height above the road plane: kerbs, pavements (m)"
+    )
+    speed_sigma: float = Field(10.0, gt=0, description="std of a new track's ground velocity, per axis, mean 0 (m/s)")
 
 
 def _default_priors() -> dict[str, ClassPrior]:
     p = ClassPrior
     return {
         # 1.60 +- 0.25: adults (1.70 +- 0.10) and children together.
-        "pedestrian": p(height=1.60, height_sigma=0.25, width=0.55, width_sigma=0.15, accel_sigma=1.5, jerk_sigma=2.0),
-        "cyclist": p(height=1.75, height_sigma=0.15, width=0.65, width_sigma=0.2, accel_sigma=2.0, jerk_sigma=2.5),
-        "motorcyclist": p(height=1.60, height_sigma=0.20, width=0.80, width_sigma=0.2, accel_sigma=3.0, jerk_sigma=3.0),
-        "tricycle": p(height=1.60, height_sigma=0.25, width=1.10, width_sigma=0.3, accel_sigma=2.0, jerk_sigma=2.5),
-        "car": p(height=1.50, height_sigma=0.15, width=1.80, width_sigma=0.15, accel_sigma=3.0, jerk_sigma=3.0),
-        "truck": p(height=3.20, height_sigma=0.50, width=2.50, width_sigma=0.15, accel_sigma=2.0, jerk_sigma=2.0),
-        "bus": p(height=3.10, height_sigma=0.30, width=2.55, width_sigma=0.10, accel_sigma=2.0, jerk_sigma=2.0),
-        "animal": p(height=0.90, height_sigma=0.45, width=0.50, width_sigma=0.30, accel_sigma=3.0, jerk_sigma=3.0),
+        "pedestrian": p(height=1.60, height_sigma=0.25, width=0.55, width_sigma=0.15, accel_sigma=1.5, jerk_sigma=4.0,
+                        contact_height_sigma=0.1, speed_sigma=1.5),
+        "cyclist": p(height=1.75, height_sigma=0.15, width=0.65, width_sigma=0.2, accel_sigma=2.0, jerk_sigma=5.0,
+                     contact_offset=0.3, contact_offset_side=0.25, clearance=0.3, contact_height_sigma=0.05,
+                     speed_sigma=5.0),
+        "motorcyclist": p(height=1.60, height_sigma=0.20, width=0.80, width_sigma=0.2, accel_sigma=3.0, jerk_sigma=6.0,
+                          contact_offset=0.3, contact_offset_side=0.25, clearance=0.3, speed_sigma=10.0),
+        "tricycle": p(height=1.60, height_sigma=0.25, width=1.10, width_sigma=0.3, accel_sigma=2.0, jerk_sigma=5.0,
+                      contact_offset=0.4, contact_offset_side=0.25, clearance=0.3, contact_height_sigma=0.05,
+                      speed_sigma=4.0),
+        "car": p(height=1.50, height_sigma=0.15, width=1.80, width_sigma=0.15, accel_sigma=3.0, jerk_sigma=6.0,
+                 contact_offset=0.95, contact_offset_side=0.05, clearance=0.2, speed_sigma=12.0),
+        "truck": p(height=3.20, height_sigma=0.50, width=2.50, width_sigma=0.15, accel_sigma=2.0, jerk_sigma=4.0,
+                   contact_offset=1.5, contact_offset_side=0.05, clearance=0.55, speed_sigma=12.0),
+        "bus": p(height=3.10, height_sigma=0.30, width=2.55, width_sigma=0.10, accel_sigma=2.0, jerk_sigma=4.0,
+                 contact_offset=2.8, contact_offset_side=0.05, clearance=0.32, speed_sigma=10.0),
+        "animal": p(height=0.90, height_sigma=0.45, width=0.50, width_sigma=0.30, accel_sigma=3.0, jerk_sigma=6.0,
+                    contact_offset=0.1, contact_offset_side=0.05, clearance=0.3, contact_height_sigma=0.05,
+                    speed_sigma=3.0),
     }
 
 
@@ -167,17 +232,29 @@ class EstimatorConfig(BaseModel):
         ),
         description="for classes without a prior (e.g. class id -1)",
     )
-    motion_model: Literal["cv", "ca"] = Field(
-        "ca", description="constant velocity or constant acceleration Kalman model"
+    motion_model: Literal["cv", "ca", "imm"] = Field(
+        "imm", description="constant velocity, constant acceleration, or an IMM of a quiet cv and a ca model"
     )
+    imm_quiet_accel_scale: float = Field(
+        0.5, gt=0, description="'imm': the quiet cv model's accel std, times the class's accel_sigma"
+    )
+    imm_quiet_s: float = Field(2.0, gt=0, description="'imm': mean time in the quiet model (s)")
+    imm_manoeuvre_s: float = Field(1.0, gt=0, description="'imm': mean time in the manoeuvre (ca) model (s)")
+    imm_init_quiet: float = Field(0.8, ge=0, le=1, description="'imm': a new filter's quiet-model probability")
     contact_sigma_px: float = Field(1.0, ge=0, description="fixed pixel noise of a box edge (px)")
-    edge_sigma_rel: float = Field(0.03, ge=0, description="edge noise as a fraction of the box size")
+    edge_sigma_rel: float = Field(0.05, ge=0, description="edge noise as a fraction of the box size")
     pitch_sigma: float = Field(
         0.003, ge=0, description="road slope / pitching std; ground contact only (rad)"
     )
     edge_margin_px: float = Field(1.0, ge=0, description="a box this close to an image edge is cut there (px)")
     position_sigma_floor: float = Field(0.1, ge=0, description="model error added to x and y (m)")
-    init_velocity_sigma: float = Field(8.0, gt=0, description="std of a new filter's velocity (m/s)")
+    init_from_box_rates: bool = Field(False, description="fuse the tracker's box rates into a new filter's velocity")
+    init_velocity_sigma: float = Field(8.0, gt=0, description="std of the box-rate velocity (m/s)")
+    heading_min_speed: float = Field(
+        2.0, ge=0, description="ground speed above which the motion direction gives the heading (m/s)"
+    )
+    contact_offset_rel_sigma: float = Field(0.2, ge=0, description="std of the contact offset, relative")
+
     init_accel_sigma: float = Field(3.0, gt=0, description="std of a new 'ca' filter's accel (m/s^2)")
     max_init_speed: float = Field(40.0, gt=0, description="clip of the initial relative speed (m/s)")
     reinit_nis: float = Field(50.0, gt=0, description="restart a filter above this NIS (2 dof)")
@@ -194,9 +271,10 @@ class EstimatorConfig(BaseModel):
 class Measurement:
     """Single-frame position measurements of N boxes (ego frame, m). NaN where undefined.
 
-    ``x`` / ``sigma``: fused range and its std; ``x_ground`` / ``sigma_ground``:
-    ground contact; ``x_height`` / ``sigma_height``: height prior (box height,
-    or the top ray for boxes cut at the bottom); ``cov``: (N, 2, 2) covariance
+    ``x`` / ``sigma``: fused range of the nearest face and its std; ``x_ground`` /
+    ``sigma_ground``: the ground contact (before the contact offset); ``x_height`` /
+    ``sigma_height``: height prior (box height, or the top ray for boxes cut at
+    the bottom); ``cov``: (N, 2, 2) covariance
     of (x, lateral). ``x_max``: upper bound of the range of boxes cut at the
     bottom (NaN otherwise). ``tan_y`` = (lateral - m_y) / (x - m_x), the bearing; ``sigma_bearing``
     its std (rad); ``var_y_extra``: lateral variance not due to x or bearing (m^2).
@@ -311,11 +389,86 @@ def _slope_fit(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     return tc @ (y - y.mean(axis=0)) / (tc @ tc)
 
 
+class _MotionFilter:
+    """Interacting multiple model (IMM) Kalman filter on X = [x, y, v_x, v_y, a_x, a_y].
+
+    One model is a plain Kalman filter (mode probability 1). ``xs`` (M, 6) and
+    ``Ps`` (M, 6, 6) are the models' states, ``mu`` (M,) their probabilities;
+    ``x`` / ``P`` the moment-matched mixture. H = [I 0 0].
+    """
+
+    def __init__(self, x: np.ndarray, p: np.ndarray, mu: np.ndarray) -> None:
+        m = len(mu)
+        self.xs = np.repeat(x[None], m, axis=0)
+        self.Ps = np.repeat(p[None], m, axis=0)
+        self.mu = np.asarray(mu, dtype=np.float64).copy()
+        self._combine()
+
+    def _combine(self) -> None:
+        self.x = self.mu @ self.xs
+        dx = self.xs - self.x
+        self.P = np.einsum("m,mij->ij", self.mu, self.Ps + dx[:, :, None] * dx[:, None, :])
+
+    def transform(self, jac: np.ndarray, shift: np.ndarray) -> None:
+        """x <- J (x - [shift, 0 ...]), P <- J P J^T (every model)."""
+        self.xs[:, :2] -= shift
+        self.xs = self.xs @ jac.T
+        self.Ps = jac @ self.Ps @ jac.T
+        self._combine()
+
+    def predict(self, models: list[tuple[np.ndarray, np.ndarray]], trans: np.ndarray) -> None:
+        """IMM mixing with the Markov matrix ``trans`` (M, M), then each model's (F, Q)."""
+        if len(models) > 1:
+            c = trans.T @ self.mu  # predicted mode probabilities
+            w = trans * self.mu[:, None] / np.maximum(c, 1e-300)[None, :]  # w[i, j] = P(i | j)
+            x0 = w.T @ self.xs
+            dx = self.xs[:, None, :] - x0[None, :, :]  # (i, j, d)
+            self.Ps = np.einsum("ij,iab->jab", w, self.Ps) + np.einsum("ij,ija,ijb->jab", w, dx, dx)
+            self.xs = x0
+            self.mu = c / c.sum()
+        for j, (f, q) in enumerate(models):
+            self.xs[j] = f @ self.xs[j]
+            self.Ps[j] = f @ self.Ps[j] @ f.T + q
+        self._combine()
+
+    def nis(self, z: np.ndarray, r: np.ndarray) -> float:
+        """Normalised innovation squared of ``z`` against the mixture's prediction."""
+        innov = z - self.x[:2]
+        try:
+            return float(innov @ np.linalg.solve(self.P[:2, :2] + r, innov))
+        except np.linalg.LinAlgError:
+            return np.inf
+
+    def update(self, z: np.ndarray, r: np.ndarray) -> None:
+        """Kalman update of every model; mode probabilities from the innovation likelihoods."""
+        m = len(self.mu)
+        loglik = np.zeros(m)
+        for j in range(m):
+            p = self.Ps[j]
+            innov = z - self.xs[j, :2]
+            s = p[:2, :2] + r
+            k = np.linalg.solve(s, p[:2, :]).T  # P H^T S^-1 (S symmetric)
+            self.xs[j] = self.xs[j] + k @ innov
+            ikh = np.eye(len(p))
+            ikh[:, :2] -= k
+            self.Ps[j] = ikh @ p @ ikh.T + k @ r @ k.T  # Joseph form
+            loglik[j] = -0.5 * (innov @ np.linalg.solve(s, innov) + np.log(np.linalg.det(s)))
+        if m > 1:
+            lw = np.log(np.maximum(self.mu, 1e-300)) + loglik
+            w = np.exp(lw - lw.max())
+            self.mu = np.maximum(w / w.sum(), 1e-6)
+            self.mu /= self.mu.sum()
+        self._combine()
+
+    def finite(self) -> bool:
+        return bool(np.all(np.isfinite(self.xs)) and np.all(np.isfinite(self.Ps)) and np.all(np.isfinite(self.mu)))
+
+
 @dataclass(eq=False)
 class _TrackFilter:
-    """Kalman filter and history of one track."""
+    """Motion filter and history of one track."""
 
-    kf: KalmanFilter
+    kf: _MotionFilter
     class_id: int
     last_update: float
     half_width: float
@@ -338,9 +491,9 @@ class Estimator:
         table = [cfg.priors.get(name, cfg.default_prior) for name in CLASSES] + [cfg.default_prior]
         self._prior = {
             key: np.array([getattr(p, key) for p in table])
-            for key in ("height", "height_sigma", "width", "width_sigma", "accel_sigma", "jerk_sigma")
+            for key in ClassPrior.model_fields
         }
-        self._dim = 6 if cfg.motion_model == "ca" else 4
+        self._dim = 6
         self.reset()
 
     def reset(self) -> None:
@@ -363,15 +516,22 @@ class Estimator:
         return self._prior[key][idx]
 
     # ------------------------------------------------------------ one frame
-    def measure(self, xyxy: np.ndarray, class_id: np.ndarray) -> Measurement:
-        """Position measurements (module docstring, steps 1-5) of boxes (N, 4) with classes (N,)."""
+    def measure(
+        self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None
+    ) -> Measurement:
+        """Position measurements (module docstring, steps 1-6) of boxes (N, 4) with classes (N,).
+
+        ``cos_heading``: |cos| of each object's heading relative to the ego x axis
+        (1 = seen end-on, the default; 0 = side-on), for the contact offset.
+        """
         b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
         n = len(b)
         cid = np.broadcast_to(np.asarray(class_id, dtype=np.int64).reshape(-1), (n,))
+        c = np.ones(n) if cos_heading is None else np.broadcast_to(np.asarray(cos_heading, float).reshape(-1), (n,))
         with np.errstate(all="ignore"):
-            return self._measure(b, cid)
+            return self._measure(b, cid, np.clip(np.nan_to_num(c, nan=1.0), 0.0, 1.0))
 
-    def _measure(self, b: np.ndarray, cid: np.ndarray) -> Measurement:
+    def _measure(self, b: np.ndarray, cid: np.ndarray, cos_h: np.ndarray) -> Measurement:
         cfg, cam = self.config, self.camera
         n = len(b)
         mx, my, mz = cam.mount
@@ -414,6 +574,7 @@ class Estimator:
         xg_all = gp[:, 0, 0]
         dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
+        sig_g = np.hypot(sig_g, (xg_all - mx) * self._prior_of(cid, "contact_height_sigma") / mz)
         g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > _MIN_DEPTH)
         x_g = np.where(g_ok, xg_all, np.nan)
         sig_g = np.where(g_ok, sig_g, np.nan)
@@ -430,11 +591,16 @@ class Estimator:
         x_h = np.where(h_ok, mx + xc_h, np.nan)
         sig_h = np.where(h_ok, sig_h, np.nan)
 
-        # 3. fusion by inverse variance
-        w_g = np.where(g_ok, 1.0 / sig_g**2, 0.0)
-        w_h = np.where(h_ok, 1.0 / sig_h**2, 0.0)
+        # 3. the nearest face from each cue (step 6 of the docstring), then fusion by inverse
+        # variance: x (the contact, for the lateral) and x_face (the range)
+        xg_f, xh_f = self._faces(x_g, x_h, cid, cos_h, H)
+        sg_f = np.hypot(sig_g, cfg.contact_offset_rel_sigma * (x_g - xg_f))
+        sh_f = np.hypot(sig_h, cfg.contact_offset_rel_sigma * (x_h - xh_f))
+        w_g = np.where(g_ok, 1.0 / sg_f**2, 0.0)
+        w_h = np.where(h_ok, 1.0 / sh_f**2, 0.0)
         w_sum = w_g + w_h
         x = np.where(w_sum > 0, (np.nan_to_num(x_g) * w_g + np.nan_to_num(x_h) * w_h) / w_sum, np.nan)
+        x_face = np.where(w_sum > 0, (np.nan_to_num(xg_f) * w_g + np.nan_to_num(xh_f) * w_h) / w_sum, np.nan)
         sig = np.where(w_sum > 0, 1.0 / np.sqrt(w_sum), np.nan)
 
         # 4. boxes cut at the bottom: top ray on z = H, bounded by the bottom image row
@@ -460,6 +626,10 @@ class Estimator:
         tan_eff = np.where(side, (lat - my) / xc, t_c)
         s_bear = su / cam.fx
         extra = np.where(side, (0.5 * sW) ** 2, 0.0)
+
+        # 6. the range is the nearest face's (boxes cut at the bottom: the top ray's estimate)
+        x = np.where(cut_bottom | ~front, x, x_face)
+        xc = x - mx  # the face's depth; the lateral stays the contact's (the box centre's ray)
         return Measurement(
             x=x,
             sigma=sig,
@@ -477,6 +647,25 @@ class Estimator:
             sigma_bearing=s_bear,
             var_y_extra=extra,
         )
+
+    def _faces(
+        self, x_g: np.ndarray, x_h: np.ndarray, cid: np.ndarray, cos_h: np.ndarray, H: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest-face range from the ground cue and from the height cue (docstring, step 6).
+
+        The box bottom is the lower of the ground contact, ``off`` behind the face, and
+        the face's lower edge at height c: x = max(x_g - off, m_x + (x_g - m_x)(m_z - c)/m_z).
+        The height cue assumed its foot and top at one x; with the foot ``off`` behind
+        a face of height H it reads about off m_z / H too far (c: (x_h - m_x) H / (H - c)).
+        """
+        mx, mz = self.camera.mount[0], self.camera.mount[2]
+        sin_h = np.sqrt(1.0 - cos_h**2)
+        off = self._prior_of(cid, "contact_offset") * cos_h + self._prior_of(cid, "contact_offset_side") * sin_h
+        clr = np.minimum(self._prior_of(cid, "clearance"), 0.9 * mz)
+        xg_f = np.maximum(x_g - off, mx + (x_g - mx) * (mz - clr) / mz)
+        hh = np.maximum(H, clr + 0.1)
+        xh_f = np.maximum(x_h - off * mz / hh, mx + (x_h - mx) * (hh - clr) / hh)
+        return xg_f, xh_f
 
     def _position_cov(
         self, xc: np.ndarray, sig_x: np.ndarray, tan_y: np.ndarray, s_bear: np.ndarray, extra: np.ndarray
@@ -574,7 +763,7 @@ class Estimator:
         self._t, self._speed, self._yaw_rate = t, speed, yaw_rate
 
         n = len(tracks)
-        meas = self.measure(self._boxes(tracks, detections), tracks.class_id)
+        meas = self.measure(self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks))
         valid = meas.valid
         state = np.full((n, self._dim), np.nan)
         p_xx = np.full(n, np.nan)
@@ -595,13 +784,13 @@ class Estimator:
                 a, hw_i = cfg.half_width_alpha, float(meas.half_width[i])
                 trk.half_width = hw_i if np.isnan(trk.half_width) else a * hw_i + (1 - a) * trk.half_width
                 if trk.updates >= cfg.settle_updates:
-                    v_w = to_world @ trk.kf.x[2:4, 0]
+                    v_w = to_world @ trk.kf.x[2:4]
                     trk.history.append((t, v_w[0], v_w[1]))
                 while trk.history and trk.history[0][0] < t - cfg.history_s - 1e-9:
                     trk.history.popleft()
             if trk is None or not (valid[i] or int(tracks.state[i]) == TrackState.LOST):
                 continue
-            state[i] = trk.kf.x[:, 0]
+            state[i] = trk.kf.x
             p_xx[i] = trk.kf.P[0, 0]
             hw[i] = trk.half_width
             hist[i] = trk.history if trk.updates >= cfg.settle_updates else None
@@ -620,7 +809,7 @@ class Estimator:
         bound x_max is pulled back to it.
         """
         mx, my = self.camera.mount[0], self.camera.mount[1]
-        x_pred, x_max = float(trk.kf.x[0, 0]), float(meas.x_max[i])
+        x_pred, x_max = float(trk.kf.x[0]), float(meas.x_max[i])
         x, sig = (x_max, float(meas.sigma[i])) if x_pred > x_max else (x_pred, _BEARING_ONLY_SIGMA)
         xc = max(x - mx, _MIN_DEPTH)
         z = np.array([x, my + xc * meas.tan_y[i]])
@@ -628,6 +817,20 @@ class Estimator:
             np.array([xc]), np.array([sig]), meas.tan_y[i : i + 1], meas.sigma_bearing[i], meas.var_y_extra[i]
         )[0]
         return z, r
+
+    def _cos_heading(self, tracks: Tracks) -> np.ndarray:
+        """|cos| of each track's heading vs the ego x axis: its motion direction when its
+        filter's ground speed is above ``heading_min_speed``, else 1 (aligned with the road)."""
+        out = np.ones(len(tracks))
+        for i, tid in enumerate(tracks.track_id):
+            trk = self._filters.get(int(tid))
+            if trk is None:
+                continue
+            v = trk.kf.x[2:4]
+            speed = float(np.hypot(*v))
+            if np.isfinite(speed) and speed >= self.config.heading_min_speed:
+                out[i] = abs(float(v[0])) / speed
+        return out
 
     @staticmethod
     def _boxes(tracks: Tracks, detections: Detections | None) -> np.ndarray:
@@ -652,21 +855,38 @@ class Estimator:
             v, w = (v if np.isfinite(v) else 0.0), (w if np.isfinite(w) else 0.0)
         return v, w
 
-    def _process(self, dt: float, class_id: int) -> tuple[np.ndarray, np.ndarray]:
-        """Transition F and process noise Q of the motion model over ``dt`` (s)."""
-        f = np.eye(self._dim)
-        f[0, 2] = f[1, 3] = dt  # p += v dt
-        if self._dim == 6:
-            f[2, 4] = f[3, 5] = dt  # v += a dt
-            f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
+    def _process(self, dt: float, class_id: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(F, Q) over ``dt`` (s) of each model: [cv], [ca] or [quiet cv, ca] (``imm``)."""
+        cfg = self.config
         cid = np.array([class_id])
-        if self._dim == 4:
-            var = float(self._prior_of(cid, "accel_sigma")[0]) ** 2
-            q = Q_discrete_white_noise(2, dt=dt, var=var, block_size=2, order_by_dim=False)
-        else:
-            dens = float(self._prior_of(cid, "jerk_sigma")[0]) ** 2
-            q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
-        return f, q
+        models = []
+        names = {"cv": ("cv",), "ca": ("ca",), "imm": ("cv", "ca")}[cfg.motion_model]
+        for name in names:
+            f = np.eye(6)
+            f[0, 2] = f[1, 3] = dt  # p += v dt
+            q = np.zeros((6, 6))
+            if name == "cv":
+                f[4, 4] = f[5, 5] = 0.0  # no acceleration
+                sa = float(self._prior_of(cid, "accel_sigma")[0])
+                if cfg.motion_model == "imm":
+                    sa *= cfg.imm_quiet_accel_scale
+                q[:4, :4] = Q_discrete_white_noise(2, dt=dt, var=sa**2, block_size=2, order_by_dim=False)
+                if cfg.motion_model == "imm":  # acceleration unknown to this model, not zero: mixing
+                    q[4:, 4:] = np.eye(2) * float(self._prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
+            else:
+                f[2, 4] = f[3, 5] = dt  # v += a dt
+                f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
+                dens = float(self._prior_of(cid, "jerk_sigma")[0]) ** 2
+                q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
+            models.append((f, q))
+        return models
+
+    def _transition(self, dt: float) -> np.ndarray:
+        """IMM Markov matrix over ``dt``: mean sojourn ``imm_quiet_s`` / ``imm_manoeuvre_s``."""
+        cfg = self.config
+        p01 = 1.0 - np.exp(-dt / cfg.imm_quiet_s)
+        p10 = 1.0 - np.exp(-dt / cfg.imm_manoeuvre_s)
+        return np.array([[1.0 - p01, p01], [p10, 1.0 - p10]])
 
     def _advance(self, dt: float, speed: float, yaw_rate: float) -> None:
         """Re-express every filter in the new ego frame, then predict it by ``dt``."""
@@ -676,32 +896,26 @@ class Estimator:
         rot = _rot(-theta)
         jac = np.kron(np.eye(self._dim // 2), rot)
         self._ego_yaw += theta
-        models: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        models: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
+        trans = self._transition(dt)
         for trk in self._filters.values():
-            kf = trk.kf
-            kf.x[:2, 0] -= shift
-            kf.x = jac @ kf.x
-            kf.P = jac @ kf.P @ jac.T
+            trk.kf.transform(jac, shift)
             if trk.class_id not in models:
                 models[trk.class_id] = self._process(dt, trk.class_id)
-            f, q = models[trk.class_id]
-            kf.predict(F=f, Q=q)
+            trk.kf.predict(models[trk.class_id], trans)
 
     def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> bool:
         """Kalman update; False (filter to restart) when the innovation fails the NIS gate."""
-        kf = trk.kf
-        innov = z - kf.x[:2, 0]
-        s = kf.P[:2, :2] + r
-        try:
-            nis = float(innov @ np.linalg.solve(s, innov))
-        except np.linalg.LinAlgError:
-            nis = np.inf
+        nis = trk.kf.nis(z, r)
         if not nis <= self.config.reinit_nis:
             log.debug("track filter restarted: NIS %.1f", nis)
             return False
-        kf.update(z.reshape(2, 1), R=r)
+        try:
+            trk.kf.update(z, r)
+        except np.linalg.LinAlgError:
+            return False
         trk.updates += 1
-        return bool(np.all(np.isfinite(kf.x)) and np.all(np.isfinite(kf.P)))
+        return trk.kf.finite()
 
     def _new_filter(
         self,
@@ -714,29 +928,36 @@ class Estimator:
         speed: float,
         yaw_rate: float,
     ) -> _TrackFilter:
-        """Filter at the measurement; velocity from the tracker's box rates (scale change)."""
+        """Filter at the measurement; ground velocity from the class prior N(0, speed_sigma^2)
+        per axis, optionally fused with the tracker's box rates (scale change)."""
         cfg, cam = self.config, self.camera
-        xc = z[0] - cam.mount[0]
-        with np.errstate(all="ignore"):
-            h = xyxy[3] - xyxy[1]
-            vcx, vh = velocity_px[0], velocity_px[3]
-            rr = -xc * vh / h  # relative range rate from the scale change
-            tan_y = (z[1] - cam.mount[1]) / xc
-            lr = rr * tan_y - xc * vcx / cam.fx  # d/dt of (x - m_x) * tan_y
-        rel = np.array([rr, lr]) if np.isfinite(rr) and np.isfinite(lr) else np.zeros(2)
-        rel = np.clip(rel, -cfg.max_init_speed, cfg.max_init_speed)
-        ground = rel + np.array([speed - yaw_rate * z[1], yaw_rate * z[0]])
-        d = self._dim
-        kf = KalmanFilter(dim_x=d, dim_z=2)
-        kf.x = np.zeros((d, 1))
-        kf.x[:4, 0] = np.concatenate([z, ground])
-        kf.P = np.zeros((d, d))
-        kf.P[:2, :2] = r
-        kf.P[2:4, 2:4] = np.eye(2) * cfg.init_velocity_sigma**2
-        if d == 6:
-            kf.P[4:, 4:] = np.eye(2) * cfg.init_accel_sigma**2
-        kf.H = np.hstack([np.eye(2), np.zeros((2, d - 2))])
-        kf.R = r.copy()
+        var0 = float(self._prior_of(np.array([cls]), "speed_sigma")[0]) ** 2
+        ground, var = np.zeros(2), var0
+        if cfg.init_from_box_rates:
+            xc = z[0] - cam.mount[0]
+            with np.errstate(all="ignore"):
+                h = xyxy[3] - xyxy[1]
+                vcx, vh = velocity_px[0], velocity_px[3]
+                rr = -xc * vh / h  # relative range rate from the scale change
+                tan_y = (z[1] - cam.mount[1]) / xc
+                lr = rr * tan_y - xc * vcx / cam.fx  # d/dt of (x - m_x) * tan_y
+            if np.isfinite(rr) and np.isfinite(lr):
+                rel = np.clip(np.array([rr, lr]), -cfg.max_init_speed, cfg.max_init_speed)
+                meas = rel + np.array([speed - yaw_rate * z[1], yaw_rate * z[0]])
+                var1 = cfg.init_velocity_sigma**2
+                ground, var = meas * var0 / (var0 + var1), var0 * var1 / (var0 + var1)
+        x = np.zeros(6)
+        x[:4] = np.concatenate([z, ground])
+        p = np.zeros((6, 6))
+        p[:2, :2] = r
+        p[2:4, 2:4] = np.eye(2) * var
+        mu = {"cv": [1.0], "ca": [1.0], "imm": [cfg.imm_init_quiet, 1.0 - cfg.imm_init_quiet]}[cfg.motion_model]
+        if cfg.motion_model != "cv":
+            p[4:, 4:] = np.eye(2) * cfg.init_accel_sigma**2
+        kf = _MotionFilter(x, p, np.array(mu))
+        if cfg.motion_model == "imm":  # the quiet model carries no acceleration
+            kf.Ps[0, 4:, :] = kf.Ps[0, :, 4:] = 0.0
+            kf._combine()
         return _TrackFilter(kf=kf, class_id=cls, last_update=t, half_width=np.nan)
 
     def _outputs(
@@ -765,7 +986,7 @@ class Estimator:
             v_now = to_world @ state[i, 2:4]  # world-fixed axes
             s_now = float(np.hypot(*v_now))
             if s_now >= cfg.min_speed_accel:
-                a_vec = to_world @ state[i, 4:6] if self._dim == 6 else _slope_fit(tt, v_w)
+                a_vec = to_world @ state[i, 4:6] if cfg.motion_model == "ca" else _slope_fit(tt, v_w)
                 accel[i] = float(a_vec @ v_now) / s_now
             if s_now >= cfg.min_speed_yaw and np.hypot(v_w[:, 0], v_w[:, 1]).min() >= cfg.min_speed_yaw:
                 heading = np.unwrap(np.arctan2(v_w[:, 1], v_w[:, 0]))

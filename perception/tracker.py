@@ -21,6 +21,27 @@ Lifecycle: tentative --(``min_hits`` hits)--> confirmed --(miss)--> lost
 more than ``tentative_max_lost_frames`` misses. Track ids (1, 2, ...) are
 assigned on confirmation, so they are contiguous.
 
+Defaults, and why:
+
+* ``min_hits`` 2: a track is confirmed on its second match, as ByteTrack
+  activates a track on the frame after its birth. A random false positive
+  almost never repeats at the same place, and at 10 fps a third hit costs
+  every object another 0.1 s of being unreported.
+* ``new_track_score`` 0.5 = ``high_score``: any high-score detection left
+  unmatched starts a (tentative) track. Small, far objects score just above
+  0.5 (the ``gt`` detector's score model; real detectors behave alike), and
+  a 0.6 bar left objects at 40-50 m untracked for a second or more; the
+  second hit still has to confirm them.
+* ``output_lost`` with ``output_lost_s`` 0.2: a confirmed track that misses a
+  detection is still reported, at its prediction (``state`` LOST,
+  ``det_index`` -1), for up to 0.2 s -- two frames at 10 fps, enough to
+  bridge the isolated misses of a detector (5 % each) without inventing
+  objects: a coasting box that drifts off its object (or off the image) is
+  scored as a false positive. ADAS trackers coast confirmed tracks through
+  short dropouts; downstream (intent, alerts) sees the state. Off, only
+  tracks matched this frame are output (MOTChallenge-style evaluation does
+  that, ``tools.mot_eval``).
+
 Appearance (optional): with ``reid_weight > 0`` and a ``features`` array, the
 stage-1 cost is ``(1 - w) (1 - IoU) + w * cosine_distance`` against each
 track's moving-average feature, and a *lost* track may also match a detection
@@ -34,7 +55,16 @@ state, width and height are filtered independently and the noise scales with
 the box size (as in ByteTrack/BoT-SORT), so near and far objects get the same
 relative uncertainty. Sizes are kept positive: a size rate that would shrink
 the box to zero is zeroed before predicting, and sizes are floored at
-``_MIN_SIZE_PX``. Noise is per frame, so defaults are tuned for ~10 fps.
+``_MIN_SIZE_PX``. Position noise and the size rates' noise are per frame
+(1/20 and 1/80 of the box; ByteTrack: 1/20 and 1/160 at 30 fps). The centre
+rates' noise is a white
+acceleration per second^2 (``std_weight_accel``), converted with the frame
+rate: objects near a moving camera sweep across the image faster and faster
+(a dog running across 5 m ahead moves 20, 27, 36, 47 px per frame at 10 fps),
+which ByteTrack's 30 fps per-frame value cannot follow at 10 fps, while at
+25-30 fps the same value is close to ByteTrack's. The size rates stay quiet:
+a walking pedestrian's box width swings with its legs, and letting that into
+the predicted width loses the track.
 """
 
 from __future__ import annotations
@@ -86,34 +116,43 @@ class TrackerConfig:
             recovered by appearance alone (IoU gate not met).
         feature_momentum: exponential-moving-average momentum of a track's
             appearance feature.
-        output_lost: also output lost tracks (predicted box, ``state`` LOST,
-            ``det_index`` -1); by default only tracks confirmed this frame.
+        output_lost: also output lost (coasting) tracks -- predicted box, ``state``
+            LOST, ``det_index`` -1 -- for at most ``output_lost_s``.
+        output_lost_s: how long a lost track is still output, s (at least one
+            frame; None = as long as it is kept, ``max_lost_s``).
         max_abs_coord: detections with any |coordinate| above this (px) are
             treated as invalid.
         std_weight_position: Kalman position noise std as a fraction of box size
             (per frame).
-        std_weight_velocity: Kalman velocity noise std as a fraction of box size
-            (per frame).
+        std_weight_velocity: Kalman noise std of the size rates (and of the centre
+            rates when ``std_weight_accel`` is None) as a fraction of box size,
+            per frame.
+        std_weight_accel: white-noise acceleration std of the box centre as a
+            fraction of box size per s^2; its per-frame velocity noise is
+            ``std_weight_accel / frame_rate**2`` (0.05 of the box size at 10 fps,
+            0.0056 at 30 fps), so the same value suits any frame rate.
         init_velocity_std: std of a new track's (unknown) velocity as a fraction
             of its box size, per frame.
     """
 
     high_score: float = 0.5
     low_score: float = 0.1
-    new_track_score: float = 0.6
+    new_track_score: float = 0.5
     match_iou: float = 0.3
     second_match_iou: float = 0.5
-    min_hits: int = 3
+    min_hits: int = 2
     max_lost_s: float = 1.0
     tentative_max_lost_frames: int = 1
     per_class: bool = True
     reid_weight: float = 0.0
     reid_max_distance: float = 0.3
     feature_momentum: float = 0.9
-    output_lost: bool = False
+    output_lost: bool = True
+    output_lost_s: float | None = 0.2
     max_abs_coord: float = 1e6
     std_weight_position: float = 1.0 / 20.0
     std_weight_velocity: float = 1.0 / 80.0
+    std_weight_accel: float | None = 5.0
     init_velocity_std: float = 0.5
 
     def __post_init__(self) -> None:
@@ -123,13 +162,15 @@ class TrackerConfig:
             "0 <= second_match_iou <= 1": 0.0 <= self.second_match_iou <= 1.0,
             "min_hits >= 1": self.min_hits >= 1,
             "max_lost_s >= 0": self.max_lost_s >= 0.0,
+            "output_lost_s >= 0 or None": self.output_lost_s is None or self.output_lost_s >= 0.0,
             "tentative_max_lost_frames >= 0": self.tentative_max_lost_frames >= 0,
             "0 <= reid_weight <= 1": 0.0 <= self.reid_weight <= 1.0,
             "0 <= feature_momentum < 1": 0.0 <= self.feature_momentum < 1.0,
             "max_abs_coord > 0": self.max_abs_coord > 0.0,
             "std weights > 0": self.std_weight_position > 0
             and self.std_weight_velocity > 0
-            and self.init_velocity_std > 0,
+            and self.init_velocity_std > 0
+            and (self.std_weight_accel is None or self.std_weight_accel > 0),
         }
         bad = [name for name, ok in checks.items() if not ok]
         if bad:
@@ -232,8 +273,9 @@ class _BoxKalman:
     _F = np.block([[np.eye(4), np.eye(4)], [np.zeros((4, 4)), np.eye(4)]])
     _H = np.hstack([np.eye(4), np.zeros((4, 4))])
 
-    def __init__(self, cxcywh: np.ndarray, wp: float, wv: float, v0: float) -> None:
+    def __init__(self, cxcywh: np.ndarray, wp: float, wv: float, v0: float, wc: float | None = None) -> None:
         self.wp, self.wv = wp, wv
+        self.wc = wv if wc is None else wc  # centre-rate noise
         self.kf = KalmanFilter(dim_x=8, dim_z=4)
         self.kf.F = self._F.copy()
         self.kf.H = self._H.copy()
@@ -263,7 +305,8 @@ class _BoxKalman:
             if x[i, 0] + x[i + 4, 0] <= _MIN_SIZE_PX:
                 x[i + 4, 0] = 0.0
         size = self._size()
-        self.kf.Q = np.diag(np.concatenate([self.wp * size, self.wv * size]) ** 2)
+        wv = np.array([self.wc, self.wc, self.wv, self.wv])
+        self.kf.Q = np.diag(np.concatenate([self.wp * size, wv * size]) ** 2)
         self.kf.predict()
         self._floor_size()
 
@@ -308,6 +351,10 @@ class Tracker:
         self.config = config or TrackerConfig()
         self.frame_rate = float(frame_rate)
         self.max_lost_frames = max(1, round(self.config.max_lost_s * self.frame_rate))
+        out_s = self.config.output_lost_s
+        self.output_lost_frames = (
+            self.max_lost_frames if out_s is None else max(1, round(out_s * self.frame_rate))
+        ) if self.config.output_lost else 0
         self.reset()
 
     def reset(self) -> None:
@@ -495,6 +542,7 @@ class Tracker:
             cfg.std_weight_position,
             cfg.std_weight_velocity,
             cfg.init_velocity_std,
+            None if cfg.std_weight_accel is None else cfg.std_weight_accel / self.frame_rate**2,
         )
 
     def _confirm(self, trk: _Track) -> None:
@@ -524,8 +572,12 @@ class Tracker:
         self._tracks.append(trk)
 
     def _output(self) -> Tracks:
-        shown = [TrackState.CONFIRMED] + ([TrackState.LOST] if self.config.output_lost else [])
-        out = [t for t in self._tracks if t.state in shown]
+        out = [
+            t
+            for t in self._tracks
+            if t.state == TrackState.CONFIRMED
+            or (t.state == TrackState.LOST and t.time_since_update <= self.output_lost_frames)
+        ]
         out.sort(key=lambda t: t.track_id)
         if not out:
             return Tracks()

@@ -15,14 +15,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from intent.alerts import Alert, AlertConfig, AlertManager
 from intent.config import IntentConfig
-from intent.labels import Assessment, Kinematics, assess
+from intent.labels import Assessment, Kinematics, Risk, assess
 from perception.camera import CameraModel
 from perception.detections import Detections
 from perception.detectors.base import Detector, DetectorTruth
 from perception.estimator import Estimates, Estimator, EstimatorConfig
 from perception.frame import Frame
 from perception.tracker import Tracker, TrackerConfig, Tracks
+from sim.aeb import Aeb
 from sim.groundtruth import GroundTruth, compute_ground_truth
 from sim.records import Sink, TickRecord
 from sim.scenario import DetectorSpec, Scenario
@@ -78,15 +80,17 @@ class PerceptionStack:
     def __init__(
         self, detector: Detector, camera: CameraModel, frame_rate: float, intent_config: IntentConfig,
         tracker_config: TrackerConfig | None = None, estimator_config: EstimatorConfig | None = None,
+        alert_config: AlertConfig | None = None,
     ) -> None:
         self.detector = detector
         self.tracker = Tracker(tracker_config, frame_rate=frame_rate)
         self.estimator = Estimator(camera, estimator_config)
         self.intent_config = intent_config
+        self.alerts = AlertManager(alert_config)
 
     def process(
         self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
-    ) -> tuple[Detections, Tracks, Estimates, Assessment]:
+    ) -> tuple[Detections, Tracks, Estimates, Assessment, list[Alert]]:
         t0 = time.perf_counter()
         dets = self.detector.detect(frame.image, truth)
         t1 = time.perf_counter()
@@ -96,10 +100,18 @@ class PerceptionStack:
         t3 = time.perf_counter()
         kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
         assessment = assess(kin, self.intent_config, frame.odometry.speed, frame.odometry.yaw_rate)
+        alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
         t4 = time.perf_counter()
         timings.update(detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3, estimate=(t3 - t2) * 1e3,
                        intent=(t4 - t3) * 1e3)
-        return dets, tracks, est, assessment
+        return dets, tracks, est, assessment, alerts
+
+    def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
+        """Whether a CRITICAL alert is on for an in-path track, and the nearest in-path range (m)."""
+        active = self.alerts.active()
+        crit = any(active.get(int(t), 0) >= Risk.CRITICAL and a.in_path[i] for i, t in enumerate(tracks.track_id))
+        rng = est.range[a.in_path & np.isfinite(est.range)]
+        return crit, float(rng.min()) if len(rng) else float("inf")
 
 
 @dataclass
@@ -154,6 +166,7 @@ class Runner:
             )
             for a in self.world.agents:
                 self.renderer.add_actor(a.identity.actor_id, a.identity.shape)
+        self.aeb = Aeb() if scenario.ego.aeb else None
         self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))
         self.frame_index = 0
 
@@ -204,6 +217,8 @@ class Runner:
         try:
             for _ in range(n_ticks):
                 t0 = time.perf_counter()
+                if self.aeb is not None:
+                    self.world.ego.brake_command = self.aeb.command(self.world.t)
                 new_collisions += self.world.step()
                 sim_ms += (time.perf_counter() - t0) * 1e3
                 ended = bool(new_collisions) and sc.end_on_collision
@@ -226,7 +241,12 @@ class Runner:
     def _emit(self, sim_ms: float, collisions: list) -> None:
         t_start = time.perf_counter()
         frame, gt, timings = self.frame()
-        dets, tracks, est, assessment = self.perception.process(frame, detector_truth(gt, self.camera), timings)
+        dets, tracks, est, assessment, alerts = self.perception.process(
+            frame, detector_truth(gt, self.camera), timings
+        )
+        if self.aeb is not None:
+            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
+            self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
         timings["sim"] = sim_ms
         w = self.world
         x, y, yaw = w.ego_pose()
@@ -235,7 +255,7 @@ class Runner:
         record = TickRecord(
             tick=w.tick, frame_index=self.frame_index, t=w.t, ego=ego, frame=frame,
             ground_truth=gt, detections=dets, tracks=tracks, estimates=est, assessments=assessment,
-            collisions=list(collisions), timings=timings,
+            alerts=alerts, collisions=list(collisions), timings=timings,
         )
         t0 = time.perf_counter()
         for s in self.sinks:

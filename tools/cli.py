@@ -28,9 +28,11 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that mean the user's input or environment is wrong (not a bug)."""
     from perception.detectors.onnx_detector import ModelError
     from sim.scenario import ScenarioError
+    from tools.regress import BaselineError
     from tools.rundir import OutputError
+    from tools.store import StoreError
 
-    return (ScenarioError, ModelError, OutputError, FileNotFoundError, PermissionError,
+    return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, FileNotFoundError, PermissionError,
             NotADirectoryError, IsADirectoryError)
 
 
@@ -58,7 +60,8 @@ def _progress() -> Progress:
 
 
 def run_scenario(
-    scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, quiet: bool = False
+    scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
+    video: Path | None = None, rerun_file: Path | None = None, lang: str = "en",
 ) -> dict:
     """Run one scenario into ``out``; returns the run summary."""
     from sim.runner import Runner
@@ -66,8 +69,20 @@ def run_scenario(
     from tools.rundir import RunDirWriter
 
     scenario = load_scenario(scenario_path)
-    writer = RunDirWriter(out, scenario, source=str(scenario_path))
-    runner = Runner(scenario, sinks=[writer], render=render, renderer_backend=renderer)
+    sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
+    if db is not None:  # opened (and checked) before anything runs
+        from tools.store import SqliteStore
+
+        sinks.append(SqliteStore(db, scenario, run_dir=out, source=str(scenario_path)))
+    if video is not None:
+        from tools.video import VideoSink
+
+        sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
+    if rerun_file is not None:
+        from tools.rerun_sink import RerunSink
+
+        sinks.append(RerunSink(rerun_file))
+    runner = Runner(scenario, sinks=sinks, render=render, renderer_backend=renderer)
     with _progress() as prog:
         task = prog.add_task(scenario.name, total=1.0)
         summary = runner.run(progress=lambda f: prog.update(task, completed=f))
@@ -81,9 +96,19 @@ def run(
     out: Annotated[Path, typer.Option("--out", help="run directory to write")],
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = True,
     renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
+    db: Annotated[Path | None, typer.Option("--db", help="also write into this SQLite store (runs accumulate)")] = None,
+    sqlite: Annotated[bool, typer.Option("--sqlite", help="write the store to RUN_DIR/run.sqlite")] = False,
+    video: Annotated[Path | None, typer.Option("--video", help="annotated MP4 (e.g. RUN_DIR/annotated.mp4)")] = None,
+    rerun_file: Annotated[Path | None, typer.Option("--rerun", help="rerun .rrd recording (e.g. RUN_DIR/run.rrd)")] = None,
+    lang: Annotated[str, typer.Option("--lang", help="video labels: en | zh")] = "en",
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
-    summary = run_scenario(scenario, out, render=render, renderer=renderer)
+    if sqlite and db is None:
+        db = out / "run.sqlite"
+    if lang not in ("en", "zh"):
+        raise typer.BadParameter("--lang must be en or zh")
+    summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
+                           rerun_file=rerun_file, lang=lang)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
@@ -98,6 +123,7 @@ def suite(
     out: Annotated[Path, typer.Option("--out", help="suite directory to write")],
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
+    db: Annotated[Path | None, typer.Option("--db", help="one SQLite store for every run of the suite")] = None,
 ) -> None:
     """Run and score every scenario of a suite; writes summary.json."""
     from tools.suite import load_suite, run_suite
@@ -105,9 +131,42 @@ def suite(
     _, paths = load_suite(suite_file)
     with _progress() as prog:
         task = prog.add_task(suite_file.stem, total=len(paths))
-        summary = run_suite(suite_file, out, workers=workers, render=render,
+        summary = run_suite(suite_file, out, workers=workers, render=render, db=db,
                             progress=lambda name: prog.update(task, advance=1, description=name))
     print_suite(summary)
+
+
+@app.command()
+@user_errors
+def regress(
+    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML")],
+    baseline: Annotated[Path, typer.Option("--baseline", help="baseline JSON")],
+    update_baseline: Annotated[bool, typer.Option("--update-baseline", help="write the current totals as the baseline")] = False,
+    out: Annotated[Path | None, typer.Option("--out", help="keep the suite directory here")] = None,
+    workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 2,
+) -> None:
+    """Run a suite and compare its totals with a baseline; exit 1 on a regression."""
+    import tempfile
+
+    from tools.regress import compare, flatten, load_baseline, markdown, write_baseline
+    from tools.suite import run_suite
+
+    base = None if update_baseline else load_baseline(baseline)  # fail before running anything
+    with tempfile.TemporaryDirectory(prefix="lookahead-regress-") as tmp:
+        summary = run_suite(suite_file, out or Path(tmp), workers=workers)
+    current = flatten(summary["totals"])
+    if update_baseline:
+        write_baseline(baseline, summary["suite"], current)
+        typer.echo(f"baseline written: {baseline}")
+        return
+    tol = {k: tuple(v) for k, v in (base.get("tolerances") or {}).items()}
+    rows = compare(current, base["metrics"], tol)
+    typer.echo(markdown(rows))
+    bad = [r["metric"] for r in rows if r["regressed"]]
+    if bad:
+        typer.echo(f"\nREGRESSION in {len(bad)} metric(s): {', '.join(bad)}")
+        raise typer.Exit(1)
+    typer.echo(f"\nno regression against {baseline}")
 
 
 def print_suite(summary: dict) -> None:
@@ -227,6 +286,43 @@ def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> Non
 
 
 @app.command()
+def query(
+    db: Annotated[Path, typer.Argument(help="SQLite store written by --db")],
+    what: Annotated[str, typer.Argument(help="alerts | tracks | objects | summary")],
+    run: Annotated[int | None, typer.Option("--run", help="only this run id")] = None,
+    fmt: Annotated[str, typer.Option("--format", help="table | csv | json")] = "table",
+) -> None:
+    """Reports from a run database: alert events, tracks, GT objects, per-run summary."""
+    from tools.query import query_command
+
+    raise typer.Exit(query_command(db, what, run, fmt))
+
+
+@app.command()
+def report(
+    path: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR", help="run or suite directory")],
+) -> None:
+    """Write a self-contained report.html (metrics, plots, key frames) for a run or a suite."""
+    from tools.report import report_command
+
+    raise typer.Exit(report_command(path))
+
+
+@app.command("export-dataset")
+def export_dataset(
+    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE", help="scenario or suite YAML")],
+    out: Annotated[Path, typer.Option("--out", help="dataset directory to write")],
+    format: Annotated[str, typer.Option("--format", help="yolo | coco | mot | study")] = "yolo",
+    every: Annotated[int, typer.Option("--every", min=1, help="export every k-th camera frame")] = 1,
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render images (off: labels only)")] = True,
+) -> None:
+    """Run scenarios with rendering and export images + ground-truth labels as a dataset."""
+    from tools.export import export_command
+
+    raise typer.Exit(export_command(source, format, every, out, render))
+
+
+@app.command()
 def track(
     det: Annotated[Path, typer.Option("--det", help="MOTChallenge det.txt")],
     out: Annotated[Path, typer.Option("--out", help="tracks file to write (MOTChallenge format)")],
@@ -248,6 +344,20 @@ def eval_mot(
     from tools.mot_cli import eval_mot_command
 
     raise typer.Exit(eval_mot_command(gt, tracks, format))
+
+
+@bench_app.command("track")
+@user_errors
+def bench_track(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    repeats: Annotated[int, typer.Option(help="timed passes over every sequence")] = 3,
+) -> None:
+    """fps and MOTA/IDF1: our tracker vs deep-sort-realtime (no embedder) on MOT15 and simulated detections."""
+    from tools.bench_track import bench_track as run_bench
+    from tools.bench_track import print_track_bench
+
+    result = run_bench(out, repeats=repeats)
+    print_track_bench(result, console)
 
 
 @app.command()

@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from rich.table import Table
-
-from sim.runner import Runner
-from sim.scenario import load_scenario
 from tools.draw import draw_ground_truth, save_rgb
-from tools.rundir import RunDirWriter, prepare_dir
+from tools.rundir import prepare_dir
 from tools.suite import load_suite
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -21,7 +16,7 @@ class KeyFrameSink:
     """Saves annotated PNGs of the frames nearest given fractions of the run."""
 
     def __init__(self, out: Path, frames_total: int) -> None:
-        self.out, self.want = out, {int(f * frames_total) for f in KEY_FRAMES}
+        self.out, self.want = prepare_dir(out), {int(f * frames_total) for f in KEY_FRAMES}
         self.saved: list[Path] = []
 
     def on_start(self, info: dict) -> None: ...
@@ -36,26 +31,25 @@ class KeyFrameSink:
 
 
 def run_demo(out: Path, console) -> dict:
-    prepare_dir(out)
-    name, paths = load_suite(ROOT / "scenarios" / "suites" / "smoke.yaml")
-    table = Table(title=f"lookahead demo: suite '{name}'")
-    for col in ("scenario", "frames", "t end (s)", "collision", "renderer", "key frames"):
-        table.add_column(col)
-    results = {}
-    for path in paths:
-        sc = load_scenario(path)
-        run_dir = out / sc.name
-        frames_total = int(sc.duration * sc.camera.rate)
-        keys = KeyFrameSink(prepare_dir(run_dir / "frames"), frames_total)
-        summary = Runner(sc, sinks=[RunDirWriter(run_dir, sc, str(path)), keys], render=True).run().to_dict()
-        hit = summary["collisions"][0] if summary["collisions"] else None
-        table.add_row(
-            sc.name, str(summary["frames"]), f"{summary['t_end']:.2f}",
-            f"{hit['name']} at {hit['ego_speed']:.1f} m/s" if hit else "-",
-            str(summary["renderer"]), str(len(keys.saved)),
-        )
-        results[sc.name] = summary
-    (out / "summary.json").write_text(json.dumps({"suite": name, "runs": results}, indent=2) + "\n")
-    console.print(table)
-    console.print(f"run directories and annotated frames in {out}", highlight=False)
-    return results
+    """The smoke suite rendered on two workers: run directories with key frames, one
+    SQLite store, an annotated video and a rerun recording of the first scenario,
+    and the HTML report of the whole suite."""
+    from tools.report import build_report
+    from tools.suite import run_suite
+
+    suite = ROOT / "scenarios" / "suites" / "smoke.yaml"
+    _, paths = load_suite(suite)
+    outputs = {p.stem: ("keyframes",) for p in paths}
+    outputs[paths[0].stem] = ("keyframes", "video", "rerun")
+    db = prepare_dir(out) / "smoke.sqlite"
+    if db.exists():
+        db.unlink()
+    summary = run_suite(suite, out, workers=2, render=True, db=db, outputs=outputs)
+    report = build_report(out)
+    from tools.cli import print_suite
+
+    print_suite(summary)
+    first = out / paths[0].stem
+    console.print(f"report: {report}\nvideo: {first / 'annotated.mp4'}\nrerun: {first / 'run.rrd'}\n"
+                  f"database: {db}", highlight=False)
+    return summary

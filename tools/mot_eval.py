@@ -15,6 +15,7 @@ Ground-truth preprocessing follows TrackEval's ``MotChallenge2DBox``:
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from pathlib import Path
 
@@ -182,6 +183,37 @@ def evaluate_mot(
     }
 
 
+#: Tracker settings for MOTChallenge-style evaluation: short memory (crowds make a
+#: coasting track drift into a neighbour's detection) and no coasting boxes in the
+#: output (MOTChallenge counts them as false positives). Chosen on MOT15
+#: TUD-Campus/TUD-Stadtmitte/KITTI-17 and confirmed on held-out KITTI-13
+#: (tests/tools/test_mot_real.py).
+MOT_TRACKER_OVERRIDES = {"max_lost_s": 0.3, "output_lost": False}
+SCORE_PERCENTILE = 75.0
+
+
+def mot_tracker_config(**overrides) -> TrackerConfig:
+    """``TrackerConfig`` defaults with ``MOT_TRACKER_OVERRIDES`` (and ``overrides``) applied."""
+    return dataclasses.replace(TrackerConfig(), **{**MOT_TRACKER_OVERRIDES, **overrides})
+
+
+def normalise_scores(dets: MotRecords, percentile: float = SCORE_PERCENTILE) -> MotRecords:
+    """Per-sequence score normalisation ``clip(conf / P(conf), 0, 1)`` for unbounded scores.
+
+    Public MOT detections (ACF, DPM) carry unbounded confidences (MOT15: about
+    -0.8 .. 123) while the tracker's thresholds assume [0, 1]; the
+    ``percentile``-th score maps to 1, scores <= 0 to 0, order is kept. Scores
+    already in [0, 1] are returned unchanged.
+    """
+    conf = dets.conf
+    if len(conf) == 0 or (conf.min() >= 0.0 and conf.max() <= 1.0):
+        return dets
+    scale = float(np.percentile(conf, percentile))
+    if scale <= 0.0:
+        return dets
+    return dataclasses.replace(dets, conf=np.clip(conf / scale, 0.0, 1.0))
+
+
 def track_records(
     dets: MotRecords,
     tracker: Tracker,
@@ -212,15 +244,15 @@ def run_tracker_on_mot(
     Args:
         det_path: MOTChallenge ``det.txt``.
         out_path: tracks file to write (parent directories created).
-        config: tracker parameters (defaults when None).
+        config: tracker parameters (``mot_tracker_config()`` when None).
         frame_rate: sequence frame rate, frames/s (MOT17 is mostly 30).
         num_frames: sequence length; default the last frame with a detection.
 
     Returns:
         Summary dict: ``frames, detections, dropped_detections, track_rows, tracks``.
     """
-    dets = read_mot(det_path)
-    tracker = Tracker(config, frame_rate=frame_rate)
+    dets = normalise_scores(read_mot(det_path))
+    tracker = Tracker(config or mot_tracker_config(), frame_rate=frame_rate)
     n = dets.num_frames if num_frames is None else num_frames
     tracks = track_records(dets, tracker, n)
     write_mot(out_path, tracks)

@@ -12,8 +12,10 @@ Constants (defined and explained in the ``tools.scoring`` modules):
         other visible GT is don't-care (matching detections / tracks ignored).
     Range errors over unoccluded GT: visible_fraction >= 0.9, truncation < 0.05,
         range 5..50 m; range_abs_err is the 90th percentile (m).
-    TTC error over GT TTC < 5 s, relative.
-    Tracking: confirmed tracks, class-aware matching, TrackEval metrics.
+    TTC error over GT TTC < 5 s, relative. Estimation skips pairs whose track is still
+        ``initializing`` (intent label; age < init_frames) -- don't-care, as for labels.
+    Tracking and estimation score every reported track: confirmed, and lost ones the
+        tracker still outputs (coasting); class-aware matching, TrackEval metrics.
 """
 
 from __future__ import annotations
@@ -78,7 +80,10 @@ def evaluate(run: RunData) -> dict[str, dict]:
 
 def compute_sections(run_dir: Path) -> dict[str, dict]:
     """The sections of a run directory (nothing written), with ``timing`` when recorded."""
+    from tools.scoring.intent import intent_sections, load_intent_run
+
     sections = evaluate(load_run(run_dir))
+    sections.update(intent_sections(load_intent_run(run_dir)))
     timings = load_timings(run_dir)
     if timings:
         sections["timing"] = timing_section(timings)

@@ -28,21 +28,46 @@ def load_suite(path: str | Path) -> tuple[str, list[Path]]:
     return str(data.get("name", p.stem)), paths
 
 
-def run_one(scenario_path: str, out_dir: str, render: bool) -> dict:
-    """Run and score one scenario into ``out_dir`` (a worker's job; returns its metrics)."""
+def run_one(
+    scenario_path: str, out_dir: str, render: bool, db: str | None = None, outputs: tuple[str, ...] = ()
+) -> dict:
+    """Run and score one scenario into ``out_dir`` (a worker's job; returns its metrics).
+
+    ``outputs`` may name extra sinks: ``keyframes`` (annotated PNGs in frames/),
+    ``video`` (annotated.mp4), ``rerun`` (run.rrd).
+    """
     from sim.runner import Runner
     from sim.scenario import load_scenario
     from tools.rundir import RunDirWriter
     from tools.score import score_run
 
     sc = load_scenario(scenario_path)
-    summary = Runner(sc, sinks=[RunDirWriter(Path(out_dir), sc, scenario_path)], render=render).run()
+    run_dir = Path(out_dir)
+    sinks: list = [RunDirWriter(run_dir, sc, scenario_path)]
+    if db is not None:
+        from tools.store import SqliteStore
+
+        sinks.append(SqliteStore(Path(db), sc, run_dir=run_dir, source=scenario_path))
+    if "keyframes" in outputs:
+        from tools.demo import KeyFrameSink
+
+        sinks.append(KeyFrameSink(run_dir / "frames", int(sc.duration * sc.camera.rate)))
+    if "video" in outputs:
+        from tools.video import VideoSink
+
+        sinks.append(VideoSink(run_dir / "annotated.mp4", fps=sc.camera.rate))
+    if "rerun" in outputs:
+        from tools.rerun_sink import RerunSink
+
+        sinks.append(RerunSink(run_dir / "run.rrd"))
+    summary = Runner(sc, sinks=sinks, render=render).run()
     metrics = score_run(Path(out_dir))
     return {"name": sc.name, "dir": out_dir, "summary": summary.to_dict(), "metrics": metrics}
 
 
 def run_suite(
-    suite_path: str | Path, out: Path, workers: int = 1, render: bool = False, progress=None
+    suite_path: str | Path, out: Path, workers: int = 1, render: bool = False, progress=None,
+    db: Path | None = None, outputs: dict[str, tuple[str, ...]] | None = None,
 ) -> dict:
     """Run every scenario of a suite (on a process pool when ``workers`` > 1), score
     each, and write ``out/summary.json`` with per-run metrics and suite ``totals``."""
@@ -57,7 +82,13 @@ def run_suite(
     for p in paths:  # validate everything before running anything
         load_scenario(p)
     prepare_dir(out)
-    jobs = [(str(p), str(out / p.stem), render) for p in paths]
+    if db is not None:  # fail before running anything; creates the schema once
+        from tools.store import open_db
+
+        open_db(db).close()
+    outputs = outputs or {}
+    jobs = [(str(p), str(out / p.stem), render, None if db is None else str(db), outputs.get(p.stem, ()))
+            for p in paths]
     results: dict[str, dict] = {}
     if workers <= 1:
         for job in jobs:
@@ -74,11 +105,10 @@ def run_suite(
                 if progress:
                     progress(r["name"])
     ordered = [results[load_scenario(p).name] for p in paths]
+    from tools.scoring.intent import intent_totals
+
     totals = score_suite([Path(r["dir"]) for r in ordered])
-    totals["closed_loop"] = {
-        "runs": len(ordered),
-        "collisions": sum(len(r["summary"]["collisions"]) for r in ordered),
-    }
+    totals.update(intent_totals([r["metrics"] for r in ordered]))
     summary = {
         "suite": name,
         "render": render,

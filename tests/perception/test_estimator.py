@@ -2,7 +2,11 @@
 
 Boxes are rendered exactly as the simulator does (``geometry.box_corners`` +
 ``CameraModel.project_boxes``, clipped to the image like a detector), from an
-object placed in the ego frame with its nearest face at x = ``near``.
+object placed in the ego frame with its nearest face at x = ``near``. Given a
+vehicle class, the object is a body on wheels: the body starts at ``near``,
+``CLEARANCE`` above the road, and the wheels touch the road ``OVERHANG``
+further in, as the simulator's cars and trucks do, so the box bottom is the
+wheels' contact (or, very close, the bumper).
 Motion cases integrate the ego exactly (constant speed and yaw rate: a
 circle) and feed 10 Hz frames.
 """
@@ -28,13 +32,30 @@ PED, CYC, CAR, TRUCK = (CLASS_ID[k] for k in ("pedestrian", "cyclist", "car", "t
 ADULT = (0.4, 0.6, 1.70)  # length, width, height (m)
 SEDAN = (4.5, 1.8, 1.50)
 RATE = 10.0
+#: Rear overhang (face to wheel contact, m) and the face's lower edge above the road (m):
+#: the simulator's sedans (0.21 L, bumper 0.17 m) and trucks (under-run bar 0.55 m).
+OVERHANG = {CAR: 0.21 * SEDAN[0], TRUCK: 1.6}
+CLEARANCE = {CAR: 0.17, TRUCK: 0.55}
 
 
-def render(near: float, y: float, size: tuple[float, float, float], cam: CameraModel = CAM) -> np.ndarray:
-    """xyxy box (clipped to the image) of an axis-aligned object, nearest face at x = near, centre y."""
-    length, _, height = size
-    corners = box_corners([[near + length / 2, y, height / 2]], [size], [0.0])
-    return clip_boxes(cam.project_boxes(corners), cam.width, cam.height)[0]
+def render(
+    near: float, y: float, size: tuple[float, float, float], cam: CameraModel = CAM, cls: int | None = None
+) -> np.ndarray:
+    """xyxy box (clipped to the image) of an axis-aligned object, nearest face at x = near, centre y.
+
+    With a vehicle ``cls`` (``OVERHANG``), a body from ``CLEARANCE`` up and wheels set in by the overhang.
+    """
+    length, width, height = size
+    ov = OVERHANG.get(cls, 0.0) if cls is not None else 0.0
+    if ov <= 0.0:
+        corners = box_corners([[near + length / 2, y, height / 2]], [size], [0.0])
+        return clip_boxes(cam.project_boxes(corners), cam.width, cam.height)[0]
+    clearance = CLEARANCE[cls]
+    body = box_corners([[near + length / 2, y, (clearance + height) / 2]], [(length, width, height - clearance)], [0.0])
+    wheels = box_corners([[near + length / 2, y, clearance / 2]], [(length - 2 * ov, width, clearance)], [0.0])
+    b = cam.project_boxes(np.concatenate([body, wheels]))
+    box = np.concatenate([b[:, :2].min(axis=0), b[:, 2:].max(axis=0)])[None]
+    return clip_boxes(box, cam.width, cam.height)[0]
 
 
 def one_track(box: np.ndarray, cls: int, track_id: int = 1, state: int = TrackState.CONFIRMED) -> Tracks:
@@ -84,7 +105,8 @@ def drive(
         c, s = np.cos(th), np.sin(th)
         rel = np.array([[c, s], [-s, c]]) @ (p - ego)
         odo_w = w if odometry_yaw_rate is None else odometry_yaw_rate
-        e = est.update(one_track(render(rel[0], rel[1], size, cam), cls), EgoOdometry(speed=ego_speed, yaw_rate=odo_w), t)
+        box = render(rel[0], rel[1], size, cam, cls)
+        e = est.update(one_track(box, cls), EgoOdometry(speed=ego_speed, yaw_rate=odo_w), t)
         out.append((t, rel, e))
     return out
 
@@ -93,8 +115,9 @@ def drive(
 @pytest.mark.parametrize("r", [5.0, 10.0, 20.0, 40.0])
 @pytest.mark.parametrize(("size", "cls"), [(ADULT, PED), (SEDAN, CAR)])
 def test_ground_contact_range_within_2_percent(r, size, cls):
-    m = Estimator(CAM).measure(render(r, 0.0, size)[None], [cls])
-    assert m.x_ground[0] == pytest.approx(r, rel=0.02)
+    m = Estimator(CAM).measure(render(r, 0.0, size, cls=cls)[None], [cls])
+    # the box bottom is where the wheels touch the road; the class's contact offset is removed
+    assert m.x_ground[0] == pytest.approx(r + OVERHANG.get(cls, 0.0), rel=0.02)
     assert m.x[0] == pytest.approx(r, rel=0.03)  # fused with a (slightly wrong) height prior
 
 
@@ -114,8 +137,9 @@ def test_height_prior_alone_within_the_priors_error(r):
 
 def test_fusion_beats_the_worse_of_the_two_cues():
     """Monte Carlo: pedestrians of random height, box edges with the configured pixel noise."""
-    est = Estimator(CAM)
-    cfg = est.config
+    cfg = EstimatorConfig()
+    cfg.priors["pedestrian"].contact_height_sigma = 0.0  # these boxes stand on the road plane, no kerb
+    est = Estimator(CAM, cfg)
     rng = np.random.default_rng(0)
     n = 400
     for r in (5.0, 10.0, 20.0, 40.0):
@@ -185,17 +209,20 @@ def test_box_cut_at_the_bottom_uses_the_height_prior():
 
 def test_tracking_through_bottom_truncation_keeps_the_range():
     """Approaching at 5 m/s; below 4.57 m the box is cut and only bearing and bound are measured."""
-    for size, cls in ((SEDAN, CAR), (ADULT, PED), ((8.0, 2.5, 3.4), TRUCK)):
+    # the truck is 0.2 m taller than the prior and its wheels 0.1 m further in: 0.3 m
+    for size, cls, tol in ((SEDAN, CAR, 0.2), (ADULT, PED, 0.2), ((8.0, 2.5, 3.4), TRUCK, 0.3)):
         out = drive((12.0, 0.0), size, cls, ego_speed=5.0, duration=2.2, cam=CAM_UP)
         for t, rel, e in out[12:]:
-            assert e.range[0] == pytest.approx(rel[0], abs=0.2), (cls, t)
+            assert e.range[0] == pytest.approx(rel[0], abs=tol), (cls, t)
             assert e.range_rate[0] == pytest.approx(-5.0, abs=0.2), (cls, t)
 
 
 def test_box_cut_at_the_top_uses_the_ground_contact_only():
-    m = Estimator(CAM).measure(render(1.5, 0.0, (8.0, 2.5, 3.4))[None], [TRUCK])
+    est = Estimator(CAM)
+    m = est.measure(render(1.5, 0.0, (8.0, 2.5, 3.4), cls=TRUCK)[None], [TRUCK])
     assert m.cut_top[0] and np.isnan(m.x_height[0])
-    assert m.x[0] == m.x_ground[0] == pytest.approx(1.5, rel=1e-6)
+    assert m.x_ground[0] == pytest.approx(1.5 + OVERHANG[TRUCK], rel=1e-6)  # the rear wheels
+    assert m.x[0] == pytest.approx(1.5, abs=0.15)  # less the prior's overhang (1.5 m)
 
 
 # ---------------------------------------------------------------- motion
@@ -247,11 +274,19 @@ def test_ego_yaw_rate_is_compensated():
 
 def test_braking_lead_vehicle_acceleration():
     # Lead car 15 m ahead at 12 m/s braking at 4 m/s^2; ego at 10 m/s.
-    out = drive((15.0, 0.0), SEDAN, CAR, ego_speed=10.0, duration=2.8, obj_velocity=(12.0, 0.0), obj_accel=(-4.0, 0.0))
+    kw = dict(start=(15.0, 0.0), size=SEDAN, cls=CAR, ego_speed=10.0, duration=2.8,
+              obj_velocity=(12.0, 0.0), obj_accel=(-4.0, 0.0))  # fmt: skip
+    # The constant-acceleration model (the IMM's manoeuvre model) follows it closely.
+    out = drive(**kw, config=EstimatorConfig(motion_model="ca"))
     for t, _, e in out[20:]:
         assert e.accel[0] == pytest.approx(-4.0, abs=1.0), t
         assert e.ground_vx[0] == pytest.approx(12.0 - 4.0 * t, abs=0.8), t
     assert np.isnan(out[3][2].accel[0])  # not before the filter settles
+    # The default IMM, tuned for the detector's box noise (5 % per edge), weighs a
+    # deceleration against that noise: it has switched to braking within 2.4 s.
+    for t, _, e in drive(**kw)[24:]:
+        assert e.accel[0] < -2.0, t
+        assert e.ground_vx[0] == pytest.approx(12.0 - 4.0 * t, abs=1.5), t
 
 
 def test_turning_cyclist_yaw_rate():
@@ -312,7 +347,7 @@ def test_lost_tracks_coast_and_filters_drop_after_2_s():
     t = 0.0
     for k in range(16):
         t = k / RATE
-        est.update(one_track(render(30.0 - 10.0 * t, 0.0, SEDAN), CAR), odo, t)
+        est.update(one_track(render(30.0 - 10.0 * t, 0.0, SEDAN, cls=CAR), CAR), odo, t)
     # the tracker reports the track as lost (box = its prediction): prediction only
     e = est.update(one_track(np.array([0.0, 0.0, 10.0, 10.0]), CAR, state=TrackState.LOST), odo, t + 0.1)
     assert e.range[0] == pytest.approx(30.0 - 10.0 * (t + 0.1), abs=0.5)

@@ -123,12 +123,12 @@ def test_run_tracker_on_mot_files(tmp_path: Path) -> None:
     out = tmp_path / "out" / "tracks.txt"
     summary = run_tracker_on_mot(det_path, out, frame_rate=10.0)
     assert summary["frames"] == 10 and summary["tracks"] == 2 and summary["dropped_detections"] == 0
-    assert len(read_mot(out)) == summary["track_rows"] == 16
+    assert len(read_mot(out)) == summary["track_rows"] == 18
     m = evaluate_mot(gt_path, out)
-    # Two frames of confirmation delay per object are the only misses.
-    assert (m["fn"], m["fp"], m["id_switches"]) == (4, 0, 0)
-    assert m["mota"] == pytest.approx(1 - 4 / 20)
-    assert m["idf1"] == pytest.approx(2 * 16 / (2 * 16 + 4))
+    # One frame of confirmation delay per object (min_hits 2) is the only miss.
+    assert (m["fn"], m["fp"], m["id_switches"]) == (2, 0, 0)
+    assert m["mota"] == pytest.approx(1 - 2 / 20)
+    assert m["idf1"] == pytest.approx(2 * 18 / (2 * 18 + 2))
 
 
 def test_cli_commands_success(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -138,7 +138,7 @@ def test_cli_commands_success(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert "2 tracks" in capsys.readouterr().out
     assert eval_mot_command(gt_path, out, "json") == 0
     metrics = json.loads(capsys.readouterr().out)
-    assert metrics["mota"] == pytest.approx(0.8)
+    assert metrics["mota"] == pytest.approx(0.9)
     assert eval_mot_command(gt_path, out, "table") == 0
     assert "MOTA" in capsys.readouterr().out
 

@@ -16,13 +16,17 @@ FAR = [300.0, 0.0, 340.0, 30.0]  # overlaps nothing
 
 
 def gt(*objs: dict) -> dict:
-    """Ground-truth struct of arrays from per-object dicts (id, cls, box; optional rest)."""
+    """Ground-truth struct of arrays from per-object dicts (id, cls, box; optional rest).
+
+    Intent fields (name, label, in_path) get neutral values so every scorer can read the run.
+    """
     keys = {
         "actor_id": "id", "class_id": "cls", "visible": "box", "visible_fraction": "vf",
         "truncation": "trunc", "range": "r", "velocity": "v", "ttc": "ttc",
+        "name": "name", "label": "label", "in_path": "in_path",
     }
-    defaults = {"vf": 1.0, "trunc": 0.0, "r": 20.0, "v": [0.0, 0.0], "ttc": 1e9}
-    return {k: [{**defaults, **o}[src] for o in objs] for k, src in keys.items()}
+    defaults = {"vf": 1.0, "trunc": 0.0, "r": 20.0, "v": [0.0, 0.0], "ttc": 1e9, "label": 1, "in_path": False}
+    return {k: [{**defaults, "name": f"a{o['id']}", **o}[src] for o in objs] for k, src in keys.items()}
 
 
 def dets(*rows: tuple) -> dict:
@@ -34,16 +38,17 @@ def dets(*rows: tuple) -> dict:
 
 
 def tracks(*objs: dict) -> dict:
-    """Tracks struct of arrays from per-track dicts (id, box, cls; optional state, kinematics)."""
-    d = {"state": "confirmed", "r": None, "vx": None, "vy": None, "ttc": None}
+    """Tracks struct of arrays from per-track dicts (id, box, cls; optional state, age,
+    kinematics, intent ``label``: 1 = stable, 0 = initializing)."""
+    d = {"state": "confirmed", "r": None, "vx": None, "vy": None, "ttc": None, "age": 5, "label": 1}
     o = [{**d, **t} for t in objs]
     return {
         "track_id": [t["id"] for t in o], "xyxy": [t["box"] for t in o],
-        "class_id": [t["cls"] for t in o], "score": [0.9] * len(o), "age": [5] * len(o),
+        "class_id": [t["cls"] for t in o], "score": [0.9] * len(o), "age": [t["age"] for t in o],
         "hits": [5] * len(o), "state": [t["state"] for t in o], "det_index": [-1] * len(o),
         "range": [t["r"] for t in o], "range_sigma": [None] * len(o),
         "ground_vx": [t["vx"] for t in o], "ground_vy": [t["vy"] for t in o],
-        "ttc": [t["ttc"] for t in o],
+        "ttc": [t["ttc"] for t in o], "label": [t["label"] for t in o],
     }
 
 
@@ -52,10 +57,14 @@ def write_run(path: Path, frames: list[dict]) -> Path:
     path.mkdir(parents=True, exist_ok=True)
     lines = []
     for i, f in enumerate(frames):
+        trk = f.get("tracks")
+        if trk is not None:  # the intent label lives in the assessments, rows aligned with tracks
+            trk = dict(trk)
+            asm = {"label": trk.pop("label")}
         rec = {
             "tick": 2 * i, "frame": i, "t": 0.1 * i, "ego": {"speed": 10.0},
             "ground_truth": f.get("ground_truth", gt()), "detections": f.get("detections", dets()),
-            "tracks": f.get("tracks"), "assessments": None, "alerts": [], "collisions": [],
+            "tracks": trk, "assessments": asm if trk is not None else None, "alerts": [], "collisions": [],
         }
         lines.append(json.dumps(rec))
     (path / "ticks.jsonl").write_text("\n".join(lines) + "\n")
@@ -110,7 +119,7 @@ def test_dont_care_ground_truth_is_neither_tp_nor_fp(tmp_path):
     occluded = {"id": 3, "cls": PED, "box": [200, 0, 210, 20], "vf": 0.3}
     small = {"id": 4, "cls": PED, "box": [250, 0, 254, 8]}  # 8 px high
     cone = {"id": 5, "cls": -1, "box": [400, 0, 420, 20]}  # static obstacle
-    hidden = {"id": 6, "cls": PED, "box": None, "vf": 0.0}  # not visible at all
+    hidden = {"id": 6, "cls": PED, "box": [None] * 4, "vf": 0.0}  # not visible at all (as the writer writes it)
     run = write_run(tmp_path / "r", [{
         "ground_truth": gt({"id": 1, "cls": PED, "box": A}, occluded, small, cone, hidden),
         "detections": dets(
@@ -239,6 +248,49 @@ def test_estimation_uses_hungarian_not_greedy(tmp_path):
     assert m["n"] == 2 and m["range_abs_err_p90"] == pytest.approx(0.0)
 
 
+def test_initializing_tracks_are_dont_care_in_estimation(tmp_path):
+    """A track labelled ``initializing`` claims its GT box but its errors are not scored."""
+    ped = {"id": 1, "cls": PED, "box": A, "r": 20.0, "v": [0, 0], "ttc": 2.0}
+    car = {"id": 2, "cls": CAR, "box": B, "r": 40.0, "v": [10, 0]}
+    frames = [{
+        "ground_truth": gt(ped, car),
+        "tracks": tracks(
+            {"id": 7, "box": A, "cls": PED, "r": 30.0, "vx": 9.0, "vy": 0.0, "ttc": 9.0, "age": 2, "label": 0},
+            {"id": 9, "box": B, "cls": CAR, "r": 44.0, "vx": 10.0, "vy": 0.0},
+        ),
+    }]
+    m = score_run(write_run(tmp_path / "r", frames))["estimation"]
+    assert (m["n"], m["n_initializing"]) == (1, 1)
+    assert m["range_rel_err_median"] == pytest.approx(0.1) and m["speed_err_median"] == 0.0
+    assert m["n_ttc"] == 0
+    # Without assessments the track's age decides (IntentConfig.init_frames = 5).
+    run = write_run(tmp_path / "r2", frames)
+    lines = [json.loads(x) for x in (run / "ticks.jsonl").read_text().splitlines()]
+    for rec in lines:
+        rec["assessments"] = None
+    (run / "ticks.jsonl").write_text("\n".join(json.dumps(x) for x in lines) + "\n")
+    assert score_run(run)["estimation"]["n_initializing"] == 1
+
+
+def test_coasting_tracks_are_scored(tmp_path):
+    """Lost (coasting) tracks the tracker outputs count: a hit on target, an FP off it."""
+    ped = {"id": 1, "cls": PED, "box": A, "r": 20.0}
+    car = {"id": 2, "cls": CAR, "box": B, "r": 40.0}
+    frames = [
+        {"ground_truth": gt(ped, car), "tracks": tracks({"id": 7, "box": A, "cls": PED, "r": 22.0},
+                                                         {"id": 9, "box": B, "cls": CAR, "r": 40.0})},
+        {"ground_truth": gt(ped, car), "tracks": tracks(
+            {"id": 7, "box": A, "cls": PED, "state": "lost", "r": 22.0},  # coasting on its object
+            {"id": 9, "box": FAR, "cls": CAR, "state": "lost"},  # coasting off: FP (and the car FN)
+            {"id": 11, "box": B, "cls": CAR, "state": "tentative"},  # never output, never scored
+        )},
+    ]
+    run = write_run(tmp_path / "r", frames)
+    m = score_run(run)
+    assert (m["tracking"]["tp"], m["tracking"]["fp"], m["tracking"]["fn"]) == (3, 1, 1)
+    assert m["estimation"]["n"] == 3 and m["estimation"]["n_range"] == 3
+
+
 # --- metrics.json merge and errors -------------------------------------------------
 
 
@@ -247,14 +299,14 @@ def test_merge_keeps_foreign_sections_and_keys(tmp_path):
         {"ground_truth": gt({"id": 1, "cls": PED, "box": A}), "detections": dets((A, 0.9, PED))},
     ])
     foreign = {
-        "intent": {"accuracy": 0.7}, "timing": {"tick": {"median": 3.0}},
+        "custom": {"accuracy": 0.7}, "timing": {"tick": {"median": 3.0}},
         "detection": {"ap50_95": 0.42, "precision": 0.0},
     }
     (run / "metrics.json").write_text(json.dumps(foreign))
     returned = score_run(run)
     on_disk = json.loads((run / "metrics.json").read_text())
     assert returned == on_disk
-    assert on_disk["intent"] == {"accuracy": 0.7} and on_disk["timing"] == foreign["timing"]
+    assert on_disk["custom"] == {"accuracy": 0.7} and on_disk["timing"] == foreign["timing"]
     assert on_disk["detection"]["ap50_95"] == 0.42 and on_disk["detection"]["precision"] == 1.0
     assert {"tracking", "estimation"} <= set(on_disk)
     score_run(run)  # idempotent
@@ -281,7 +333,7 @@ def test_score_command_prints_tables(tmp_path, capsys):
 )
 def test_errors_exit_2_with_one_line_and_nothing_overwritten(tmp_path, capsys, setup, needle):
     run = tmp_path / "r"
-    good = json.dumps({"ground_truth": gt(), "detections": dets(), "tracks": None})
+    good = json.dumps({"t": 0.0, "ground_truth": gt(), "detections": dets(), "tracks": None})
     metrics = '{"intent": {"accuracy": 1.0}}'
     if setup != "missing_dir":
         run.mkdir()
@@ -290,7 +342,7 @@ def test_errors_exit_2_with_one_line_and_nothing_overwritten(tmp_path, capsys, s
         (run / "ticks.jsonl").write_text(good + "\n{not json\n")
     elif setup == "bad_shape":
         (run / "ticks.jsonl").write_text(json.dumps(
-            {"ground_truth": gt(), "detections": dets(([1, 2, 3], 0.5, PED))}) + "\n")
+            {"t": 0.0, "ground_truth": gt(), "detections": dets(([1, 2, 3], 0.5, PED))}) + "\n")
     elif setup == "not_object":
         (run / "ticks.jsonl").write_text(good + "\n[1, 2]\n")
     elif setup == "bad_metrics":

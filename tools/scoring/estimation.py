@@ -1,9 +1,19 @@
 """The ``estimation`` section of ``metrics.json``: range, velocity and TTC errors of tracks.
 
-Matching, per frame: confirmed tracks vs every GT with a visible box, one-to-one
-Hungarian on IoU of track xyxy vs GT visible box, pairs with IoU >= 0.5 kept.
-Class-agnostic: the geometry of whatever a track follows is scored even if its
-class is wrong (classification is scored by ``detection``).
+Matching, per frame: reported tracks (confirmed or lost/coasting, as in
+``tracking``) vs every GT with a visible box, one-to-one Hungarian on IoU of
+track xyxy vs GT visible box, pairs with IoU >= 0.5 kept. Class-agnostic: the
+geometry of whatever a track follows is scored even if its class is wrong
+(classification is scored by ``detection``).
+
+Initializing tracks are don't-care: a pair whose track is still
+``initializing`` (the intent label of that track row in ``ticks.jsonl``, i.e.
+younger than ``IntentConfig.init_frames`` frames; ``age < init_frames`` when a
+run has no assessments) is matched -- so it still claims its GT box -- but not
+scored. This is the architecture's rule for labels ("GT frames where a
+prediction can't yet exist are don't-care"): a track's velocity, and so its
+TTC, needs a few frames to exist, and the system flags those frames itself.
+Nothing else is skipped; coasting tracks are scored.
 
 Errors over the matched pairs (each metric with its count ``n_*``; a metric is
 null when its set is empty; null estimates are left out of the set):
@@ -17,7 +27,9 @@ null when its set is empty; null estimates are left out of the set):
         of the ground-velocity vectors (ego axes), all pairs;
     ttc_err_median -- median |TTC_hat - TTC| / TTC over pairs with
         0 < GT TTC < TTC_MAX_S (5 s); a predicted "never" (1e9) counts as is.
-``n`` = matched pairs. Without tracks in the run every metric is null, counts 0.
+``n`` = scored pairs (matched, not initializing); ``n_initializing`` = matched
+pairs left out as initializing. Without tracks in the run every metric is null,
+counts 0.
 """
 
 from __future__ import annotations
@@ -34,15 +46,17 @@ RANGE_MAX_M = 50.0
 TTC_MAX_S = 5.0
 RANGE_ABS_PERCENTILE = 90.0
 
-_FIELDS = ("r_hat", "r", "vf", "trunc", "v_hat", "v", "ttc_hat", "ttc")
+_FIELDS = ("init", "r_hat", "r", "vf", "trunc", "v_hat", "v", "ttc_hat", "ttc")
 
 
 def match_pairs(gt: GTFrame, tracks: TrackFrame) -> dict[str, np.ndarray]:
-    """Estimate / truth arrays of one frame's matched (track, GT) pairs, keyed as ``_FIELDS``."""
-    trk = tracks[tracks.confirmed]
+    """Estimate / truth arrays of one frame's matched (track, GT) pairs, keyed as ``_FIELDS``
+    (``init``: the track is initializing, a don't-care pair)."""
+    trk = tracks[tracks.reported]
     iou = class_iou(trk.xyxy, None, gt.visible, None)
     t, g = hungarian_match(iou)
     return {
+        "init": trk.initializing[t],
         "r_hat": trk.range[t], "r": gt.range[g],
         "vf": gt.visible_fraction[g], "trunc": gt.truncation[g],
         "v_hat": trk.ground_velocity[t], "v": gt.velocity[g],
@@ -59,7 +73,7 @@ def null_estimation() -> dict:
     return {
         "range_rel_err_median": None, "range_abs_err_p90": None,
         "speed_err_median": None, "ttc_err_median": None,
-        "n_range": 0, "n_speed": 0, "n_ttc": 0, "n": 0,
+        "n_range": 0, "n_speed": 0, "n_ttc": 0, "n": 0, "n_initializing": 0,
     }
 
 
@@ -69,6 +83,8 @@ def evaluate_estimation(run: RunData) -> dict:
         return null_estimation()
     frames = [match_pairs(gt, trk) for gt, trk in zip(run.gt, run.tracks, strict=True)]
     p = {k: np.concatenate([f[k] for f in frames]) for k in _FIELDS}
+    n_init = int(np.count_nonzero(p["init"]))
+    p = {k: v[~p["init"]] for k, v in p.items()}
     with np.errstate(invalid="ignore", divide="ignore"):
         range_err = np.abs(p["r_hat"] - p["r"])
         in_range = (
@@ -92,4 +108,5 @@ def evaluate_estimation(run: RunData) -> dict:
         "n_speed": len(speed),
         "n_ttc": len(ttc),
         "n": len(p["r"]),
+        "n_initializing": n_init,
     }

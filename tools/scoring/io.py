@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from intent.config import IntentConfig
+from intent.labels import Label
 from perception.tracker import TrackState
 from sim.records import jsonable
 
@@ -30,6 +32,11 @@ TICKS_FILE = "ticks.jsonl"
 METRICS_FILE = "metrics.json"
 
 _CONFIRMED = (TrackState.CONFIRMED.name.lower(), int(TrackState.CONFIRMED))
+_LOST = (TrackState.LOST.name.lower(), int(TrackState.LOST))
+#: ``intent.labels.Label.INITIALIZING`` (tools may import intent; the value is the contract).
+LABEL_INITIALIZING = int(Label.INITIALIZING)
+#: Fallback when a run has no assessments: tracks younger than this are initializing.
+INIT_FRAMES = IntentConfig().init_frames
 
 
 class RunDirError(ValueError):
@@ -71,6 +78,8 @@ class TrackFrame:
     range: np.ndarray  # (K,) m
     ground_velocity: np.ndarray  # (K, 2) m/s, ground_vx, ground_vy
     ttc: np.ndarray  # (K,) s, 1e9 = never
+    reported: np.ndarray  # (K,) bool, state confirmed or lost (coasting): what the system outputs
+    initializing: np.ndarray  # (K,) bool, intent label ``initializing`` (or age < init_frames)
 
     def __getitem__(self, index: np.ndarray) -> TrackFrame:
         return TrackFrame(**{k: v[index] for k, v in self.__dict__.items()})
@@ -158,7 +167,20 @@ def _parse_dets(obj: Any, where: str) -> DetFrame:
     )
 
 
-def _parse_tracks(obj: Any, where: str) -> TrackFrame | None:
+def _initializing(assessments: Any, age: np.ndarray, n: int) -> np.ndarray:
+    """Rows labelled ``initializing`` by the run's intent stage; ``age < INIT_FRAMES`` without one."""
+    label = assessments.get("label") if isinstance(assessments, dict) else None
+    if isinstance(label, list) and len(label) == n:
+        try:
+            lab = np.array([np.nan if v is None else v for v in label], dtype=np.float64)
+        except (TypeError, ValueError):
+            lab = None
+        if lab is not None:
+            return lab == LABEL_INITIALIZING
+    return age < INIT_FRAMES
+
+
+def _parse_tracks(obj: Any, where: str, assessments: Any = None) -> TrackFrame | None:
     if obj is None:
         return None
     if not isinstance(obj, dict):
@@ -171,22 +193,27 @@ def _parse_tracks(obj: Any, where: str) -> TrackFrame | None:
     state = obj.get("state")
     if not isinstance(state, list) or len(state) != n:
         raise RunDirError(f"{where}.state: expected {n} values")
+    age = a("age")
+    confirmed = np.array([s in _CONFIRMED for s in state], dtype=bool)
     return TrackFrame(
         track_id=_ints(a("track_id", req=True), f"{where}.track_id"),
         xyxy=a("xyxy", 4, req=True),
         class_id=_ints(a("class_id", req=True), f"{where}.class_id"),
         score=a("score"),
-        confirmed=np.array([s in _CONFIRMED for s in state], dtype=bool),
+        confirmed=confirmed,
         range=a("range"),
         ground_velocity=np.column_stack([a("ground_vx"), a("ground_vy")]),
         ttc=a("ttc"),
+        reported=confirmed | np.array([s in _LOST for s in state], dtype=bool),
+        initializing=_initializing(assessments, age, n),
     )
 
 
 def _empty_tracks() -> TrackFrame:
     z = np.zeros(0)
     zi = np.zeros(0, dtype=np.int64)
-    return TrackFrame(zi, np.zeros((0, 4)), zi, z, np.zeros(0, dtype=bool), z, np.zeros((0, 2)), z)
+    zb = np.zeros(0, dtype=bool)
+    return TrackFrame(zi, np.zeros((0, 4)), zi, z, zb, z, np.zeros((0, 2)), z, zb, zb)
 
 
 def load_run(run_dir: Path) -> RunData:
@@ -221,7 +248,7 @@ def load_run(run_dir: Path) -> RunData:
                 raise RunDirError(f"{where}: expected a JSON object per line")
             gts.append(_parse_gt(rec.get("ground_truth"), f"{where}: ground_truth"))
             dets.append(_parse_dets(rec.get("detections"), f"{where}: detections"))
-            tracks.append(_parse_tracks(rec.get("tracks"), f"{where}: tracks"))
+            tracks.append(_parse_tracks(rec.get("tracks"), f"{where}: tracks", rec.get("assessments")))
     has_tracks = any(t is not None for t in tracks)
     return RunData(
         gt=gts,
@@ -246,12 +273,15 @@ def read_metrics(run_dir: Path) -> dict:
     return data
 
 
-def merge_sections(existing: dict, sections: dict[str, dict]) -> dict:
+def merge_sections(existing: dict, sections: dict[str, dict | list]) -> dict:
     """``existing`` with each section's keys updated (foreign keys, also inside sections, kept)."""
     out = dict(existing)
     for name, values in sections.items():
         old = out.get(name)
-        out[name] = {**old, **values} if isinstance(old, dict) else dict(values)
+        if isinstance(values, dict):
+            out[name] = {**old, **values} if isinstance(old, dict) else dict(values)
+        else:  # list sections (expectations) are replaced whole
+            out[name] = values
     return out
 
 

@@ -3,9 +3,11 @@
 Inputs, per frame (MOT frame = position in ``ticks.jsonl`` + 1):
     ground truth -- the *evaluated* GT of ``tools.scoring.detection`` (visible box,
         class >= 0, visible fraction >= 0.5, height >= 10 px), id = ``actor_id``;
-    tracker -- tracks whose state is ``confirmed`` (tentative and lost tracks are
-        not reported by the system, so they are not scored).
-Don't-care GT (visible but not evaluated) is removed, and so is every confirmed
+    tracker -- every track the system reports: state ``confirmed`` or ``lost``
+        (a coasting track the tracker still outputs, ``TrackerConfig.output_lost``;
+        it is scored like any other, so a coasting box that drifts off its object
+        is a false positive). Tentative tracks are never output, hence never scored.
+Don't-care GT (visible but not evaluated) is removed, and so is every reported
 track that a one-to-one Hungarian matching (IoU >= 0.5, same class) pairs with a
 don't-care GT box -- TrackEval's MOT16 distractor rule, done here before calling
 ``tools.mot_eval.evaluate_mot`` (which then runs with its preprocessing off).
@@ -45,7 +47,7 @@ def frame_rows(frame: int, gt: GTFrame, tracks: TrackFrame) -> tuple[np.ndarray,
         (GT rows (G, 7), track rows (K, 7), number of tracks dropped on don't-care GT).
     """
     evaluated, dont_care = gt_selection(gt)
-    trk = tracks[tracks.confirmed]
+    trk = tracks[tracks.reported]
     shown = evaluated | dont_care
     iou = class_iou(trk.xyxy, trk.class_id, gt.visible[shown], gt.class_id[shown])
     rows, cols = hungarian_match(iou)

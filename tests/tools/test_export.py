@@ -1,0 +1,179 @@
+"""Dataset export round trips: labels re-read from each format match the ground truth."""
+
+from __future__ import annotations
+
+import configparser
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from perception.detections import CLASSES
+from perception.geometry import iou_matrix
+from perception.mot import read_mot
+from perception.tracker import TrackState
+from sim.scenario import load_scenario
+from tools.export import FORMATS, export_command, export_dataset, export_scenarios
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "urban_mix.yaml"  # many classes in view from the start
+DURATION, EVERY = 1.5, 2
+TOL_PX = 0.5
+
+
+class Capture:
+    """Keeps each frame's ground truth and tracks (the export's reference)."""
+
+    def __init__(self) -> None:
+        self.frames: dict[int, tuple] = {}
+
+    def on_start(self, info: dict) -> None: ...
+
+    def on_tick(self, rec) -> None:
+        self.frames[rec.frame_index] = (rec.ground_truth, rec.tracks)
+
+    def on_end(self, summary: dict) -> None: ...
+
+
+def expected(gt) -> list[int]:
+    """Indices of the GT rows every format must label: class_id >= 0, a visible box."""
+    v = gt.visible
+    ok = (gt.class_id >= 0) & np.all(np.isfinite(v), axis=1) & (gt.visible_fraction > 0)
+    return np.flatnonzero(ok & (v[:, 2] > v[:, 0]) & (v[:, 3] > v[:, 1])).tolist()
+
+
+@pytest.fixture(scope="module")
+def short():
+    return load_scenario(SCENARIO).model_copy(update={"duration": DURATION})
+
+
+@pytest.fixture(scope="module")
+def exported(short, tmp_path_factory: pytest.TempPathFactory):
+    """fmt -> (dataset dir, result, captured frames); one short rendered run per format."""
+    out = {}
+    for fmt in FORMATS:
+        cap = Capture()
+        d = tmp_path_factory.mktemp(fmt)
+        out[fmt] = (d, export_scenarios([short], fmt, EVERY, d, extra_sinks=[cap]), cap.frames)
+    return out
+
+
+def kept_frames(frames: dict) -> list[int]:
+    return [f for f in sorted(frames) if f % EVERY == 0]
+
+
+def test_counts_and_deterministic_names(exported, short) -> None:
+    d, res, frames = exported["yolo"]
+    kept = kept_frames(frames)
+    assert res["frames"] == len(kept) == 8
+    assert res["objects"] == sum(len(expected(frames[f][0])) for f in kept) > 20
+    assert sorted(p.name for p in (d / "images").iterdir()) == [f"urban_mix_{f:06d}.png" for f in kept]
+    assert sorted(p.name for p in (d / "labels").iterdir()) == [f"urban_mix_{f:06d}.txt" for f in kept]
+    img = cv2.imread(str(d / "images" / f"urban_mix_{kept[-1]:06d}.png"))
+    assert img.shape == (short.camera.height, short.camera.width, 3) and img.std() > 5
+
+
+def test_yolo_round_trip(exported, short) -> None:
+    d, _, frames = exported["yolo"]
+    data = yaml.safe_load((d / "data.yaml").read_text())
+    assert data["nc"] == len(CLASSES) and [data["names"][i] for i in range(len(CLASSES))] == list(CLASSES)
+    assert (d / data["train"]).is_dir()
+    w, h = short.camera.width, short.camera.height
+    for f in kept_frames(frames):
+        gt = frames[f][0]
+        rows = np.loadtxt(d / "labels" / f"urban_mix_{f:06d}.txt", ndmin=2).reshape(-1, 5)
+        idx = expected(gt)
+        assert rows[:, 0].astype(int).tolist() == gt.class_id[idx].tolist()
+        cx, cy, bw, bh = rows[:, 1] * w, rows[:, 2] * h, rows[:, 3] * w, rows[:, 4] * h
+        xyxy = np.column_stack([cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2])
+        np.testing.assert_allclose(xyxy, gt.visible[idx], atol=TOL_PX)
+        assert np.all((rows[:, 1:] >= 0) & (rows[:, 1:] <= 1))
+
+
+def test_coco_round_trip(exported) -> None:
+    d, _, frames = exported["coco"]
+    doc = json.loads((d / "annotations.json").read_text())
+    assert [c["name"] for c in doc["categories"]] == list(CLASSES)
+    cat = {c["id"]: c["name"] for c in doc["categories"]}
+    kept = kept_frames(frames)
+    assert [im["frame_index"] for im in doc["images"]] == kept
+    assert len({a["id"] for a in doc["annotations"]}) == len(doc["annotations"])
+    for im in doc["images"]:
+        assert (d / im["file_name"]).is_file()
+        gt = frames[im["frame_index"]][0]
+        anns = [a for a in doc["annotations"] if a["image_id"] == im["id"]]
+        idx = expected(gt)
+        assert [a["track_id"] for a in anns] == gt.actor_id[idx].tolist()
+        assert [cat[a["category_id"]] for a in anns] == [CLASSES[c] for c in gt.class_id[idx]]
+        xywh = np.array([a["bbox"] for a in anns]).reshape(-1, 4)
+        xyxy = np.column_stack([xywh[:, :2], xywh[:, :2] + xywh[:, 2:]])
+        np.testing.assert_allclose(xyxy, gt.visible[idx], atol=TOL_PX)
+        np.testing.assert_allclose([a["occlusion"] for a in anns], 1 - gt.visible_fraction[idx], atol=1e-3)
+        np.testing.assert_allclose([a["truncation"] for a in anns], gt.truncation[idx], atol=1e-3)
+
+
+def test_mot_round_trip(exported, short) -> None:
+    d, _, frames = exported["mot"]
+    seq = d / "urban_mix"
+    kept = kept_frames(frames)
+    ini = configparser.ConfigParser()
+    ini.read(seq / "seqinfo.ini")
+    s = ini["Sequence"]
+    assert (int(s["seqLength"]), int(s["imWidth"]), int(s["imHeight"])) == (len(kept), short.camera.width, short.camera.height)
+    assert int(s["frameRate"]) == round(short.camera.rate / EVERY) and s["imDir"] == "img1"
+    assert sorted(p.name for p in (seq / "img1").iterdir()) == [f"{n:06d}.jpg" for n in range(1, len(kept) + 1)]
+    mot = read_mot(seq / "gt" / "gt.txt")
+    for n, f in enumerate(kept, start=1):
+        gt = frames[f][0]
+        rows = mot[mot.frame == n]
+        idx = expected(gt)
+        assert rows.track_id.tolist() == gt.actor_id[idx].tolist()
+        assert (rows.extra[:, 0].astype(int) - 1).tolist() == gt.class_id[idx].tolist()
+        np.testing.assert_allclose(rows.xyxy, gt.visible[idx], atol=TOL_PX)
+        np.testing.assert_allclose(rows.extra[:, 1], gt.visible_fraction[idx], atol=1e-3)
+        assert np.all(rows.conf == 1)
+
+
+def test_study_round_trip(exported) -> None:
+    d, _, frames = exported["study"]
+    n_tracked = 0
+    for f in kept_frames(frames):
+        gt, tracks = frames[f]
+        assert (d / "images" / f"urban_mix_frame_{f:06d}.jpg").is_file()
+        items = json.loads((d / "labels" / f"urban_mix_frame_{f:06d}.json").read_text())
+        idx = expected(gt)
+        assert [o["actor_id"] for o in items] == gt.actor_id[idx].tolist()
+        assert [(o["class"], o["class_id"]) for o in items] == [(gt.cls[i], int(gt.class_id[i])) for i in idx]
+        for o, i in zip(items, idx, strict=True):
+            (x0, y0), (x1, y1b), (x1b, y1), (x0b, y0b) = o["bbox"]  # TL, TR, BR, BL
+            assert (y1b, x1b, x0b, y0b) == (y0, x1, x0, y1)
+            np.testing.assert_allclose([x0, y0, x1, y1], gt.visible[i], atol=TOL_PX)
+            assert o["distance_m"] == pytest.approx(gt.range[i], abs=0.01)
+            assert o["speed_m_s"] == pytest.approx(np.linalg.norm(gt.velocity[i]), abs=0.01)
+            if o["tracked_id"] is not None:
+                n_tracked += 1
+                k = tracks.track_id.tolist().index(o["tracked_id"])
+                assert tracks.state[k] == TrackState.CONFIRMED
+                assert iou_matrix(tracks.xyxy[k:k + 1], gt.visible[i:i + 1])[0, 0] >= 0.5
+        ids = [o["tracked_id"] for o in items if o["tracked_id"] is not None]
+        assert len(ids) == len(set(ids))  # one-to-one
+    assert n_tracked > 5
+
+
+def test_export_dataset_from_suite_yaml_and_cli_errors(short, tmp_path: Path, capsys) -> None:
+    sc = tmp_path / "short.yaml"
+    sc.write_text(yaml.safe_dump(short.model_copy(update={"duration": 0.5}).model_dump(mode="json")))
+    suite = tmp_path / "suite.yaml"
+    suite.write_text("name: tiny\nscenarios: [short.yaml]\n")
+    res = export_dataset(suite, "mot", 1, tmp_path / "ds", render=False)  # labels only: fast
+    assert [s["name"] for s in res["sequences"]] == ["urban_mix"] and res["frames"] == 5
+    assert (tmp_path / "ds" / "urban_mix" / "gt" / "gt.txt").stat().st_size > 0
+    assert export_command(sc, "voc", 1, tmp_path / "x") == 2
+    assert capsys.readouterr().err.startswith("error: --format")
+    assert export_command(tmp_path / "missing.yaml", "yolo", 1, tmp_path / "x") == 2
+    assert capsys.readouterr().err.startswith("error: ")
+    assert export_command(sc, "yolo", 0, tmp_path / "x") == 2
+    assert "--every" in capsys.readouterr().err

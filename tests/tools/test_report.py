@@ -1,0 +1,123 @@
+"""HTML reports of a real (short, unrendered) run directory and of a suite directory."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from sim.runner import Runner
+from sim.scenario import load_scenario
+from tools.report import REPORT_FILE, build_report, report_command
+from tools.rundir import RunDirWriter
+from tools.score import score_run, score_suite
+
+ROOT = Path(__file__).resolve().parents[2]
+SCENARIO = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
+
+
+class _Refs(HTMLParser):
+    """Collects every src/href attribute and the tags of a page."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.refs: list[tuple[str, str, str]] = []
+        self.tags: set[str] = set()
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        self.tags.add(tag)
+        self.refs += [(tag, k, v or "") for k, v in attrs if k in ("src", "href")]
+
+
+def _parse(path: Path) -> _Refs:
+    p = _Refs()
+    p.feed(path.read_text(encoding="utf-8"))
+    return p
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A scored run of the nearside pedestrian crossing, with one key-frame PNG."""
+    out = tmp_path_factory.mktemp("report") / "ped"
+    sc = load_scenario(SCENARIO)
+    Runner(sc, sinks=[RunDirWriter(out, sc, str(SCENARIO))], render=False).run()
+    score_run(out)
+    (out / "frames").mkdir()
+    img = np.zeros((36, 64, 3), np.uint8)
+    img[10:20, 20:30] = (255, 80, 80)
+    assert cv2.imwrite(str(out / "frames" / "frame_0010.png"), img)
+    return out
+
+
+def test_run_report_sections_and_inlined_images(run_dir: Path) -> None:
+    path = build_report(run_dir)
+    assert path == run_dir / REPORT_FILE
+    text = path.read_text(encoding="utf-8")
+    for heading in ("Expectations", "Time to collision", "Intent", "Range estimation", "Timing",
+                    "Key frames", "Metrics", "ped_crossing_nearside"):
+        assert f">{heading}<" in text, heading
+    for section in ("detection", "tracking", "estimation", "intent", "danger", "closed_loop"):
+        assert f"<h3>{section}</h3>" in text, section
+    refs = _parse(path)
+    imgs = [v for tag, k, v in refs.refs if tag == "img"]
+    # confusion matrix, range error, TTC timeline, timing + the key frame
+    assert len(imgs) == 5
+    assert all(v.startswith("data:image/png;base64,") for v in imgs)
+    assert "frame_0010.png — t = 1.10 s" in text
+    assert "PASS" in text  # the scenario's alert expectation
+
+
+def test_run_report_is_self_contained(run_dir: Path) -> None:
+    refs = _parse(build_report(run_dir))
+    assert not [r for r in refs.refs if not r[2].startswith("data:")]  # no links, no external files
+    assert not refs.tags & {"script", "link", "iframe"}
+    assert "http" not in "".join(v for _, _, v in refs.refs if not v.startswith("data:"))
+
+
+def test_report_command_scores_first_when_metrics_missing(run_dir: Path, tmp_path: Path, capsys) -> None:
+    bare = tmp_path / "bare"
+    shutil.copytree(run_dir, bare)
+    (bare / "metrics.json").unlink()
+    assert report_command(bare) == 0
+    assert (bare / "metrics.json").is_file() and (bare / REPORT_FILE).is_file()
+    assert capsys.readouterr().out.strip().endswith(REPORT_FILE)
+
+
+@pytest.mark.parametrize("kind", ["missing", "empty"])
+def test_report_command_bad_path(tmp_path: Path, capsys, kind: str) -> None:
+    path = tmp_path / "nope"
+    if kind == "empty":
+        path.mkdir()
+    assert report_command(path) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and str(path) in err
+
+
+def test_suite_report_rows_and_relative_links(run_dir: Path, tmp_path: Path) -> None:
+    suite = tmp_path / "suite"
+    names = {"ped_a": "a", "ped_b": "b"}
+    for d in names.values():
+        shutil.copytree(run_dir, suite / d)
+        (suite / d / REPORT_FILE).unlink(missing_ok=True)
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    summary = {
+        "suite": "tiny", "render": False,
+        "runs": {n: {"dir": d, "summary": {}, "metrics": metrics} for n, d in names.items()},
+        "totals": score_suite([suite / d for d in names.values()]),
+    }
+    (suite / "summary.json").write_text(json.dumps(summary))
+    path = build_report(suite)
+    assert path == suite / REPORT_FILE
+    text = path.read_text(encoding="utf-8")
+    assert "suite tiny" in text and "TOTAL" in text
+    assert text.count("<tr>") + text.count("<tr ") == 1 + len(names) + 1  # header, runs, totals
+    hrefs = [v for tag, k, v in _parse(path).refs if k == "href"]
+    assert sorted(set(hrefs)) == ["a/report.html", "b/report.html"]
+    for d in names.values():
+        assert (suite / d / REPORT_FILE).is_file()  # each run's report built too
+    assert not [v for _, _, v in _parse(path).refs if v.startswith(("http", "/", "file:"))]

@@ -1,0 +1,156 @@
+"""VideoSink: an annotated MP4 of a short real rendered run, read back with OpenCV."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+from intent.alerts import Alert
+from intent.labels import Risk
+from sim.runner import Runner
+from sim.scenario import load_scenario
+from tools import video
+from tools.draw import risk_colour
+from tools.video import VideoSink, find_cjk_font
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class Collect:
+    def __init__(self) -> None:
+        self.records = []
+
+    def on_start(self, info: dict) -> None: ...
+
+    def on_tick(self, record) -> None:
+        self.records.append(record)
+
+    def on_end(self, summary: dict) -> None: ...
+
+
+def short_scenario(duration: float = 2.0):
+    sc = load_scenario(ROOT / "scenarios" / "ped_crossing_nearside.yaml")
+    return sc.model_copy(update={"duration": duration})
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    """A 2 s rendered run written to an MP4 (plus the records, for offline checks)."""
+    sc = short_scenario()
+    path = tmp_path_factory.mktemp("video") / "sub" / "annotated.mp4"
+    sink, col = VideoSink(path, fps=sc.camera.rate), Collect()
+    summary = Runner(sc, sinks=[col, sink], render=True).run()
+    return sc, path, sink, col.records, summary
+
+
+def read_frames(path: Path) -> list[np.ndarray]:
+    cap = cv2.VideoCapture(str(path))
+    assert cap.isOpened(), f"OpenCV cannot open {path}"
+    frames = []
+    while True:
+        ok, img = cap.read()
+        if not ok:
+            break
+        frames.append(img)
+    cap.release()
+    return frames
+
+
+def test_mp4_reads_back_with_every_frame_at_the_camera_size(rendered):
+    sc, path, sink, records, summary = rendered
+    frames = read_frames(path)
+    assert sink.frames_written == len(records) == summary.frames > 10
+    assert len(frames) == sink.frames_written
+    assert {f.shape for f in frames} == {(sc.camera.height, sc.camera.width, 3)}
+    assert sink.fourcc in video.FOURCCS
+
+
+def test_frames_carry_the_overlay(rendered):
+    """The header strip is darkened and every tracked object gets a box in its risk colour."""
+    _, path, sink, records, _ = rendered
+    frames = read_frames(path)
+    k = next(i for i, r in enumerate(records) if len(r.tracks.track_id))
+    raw = records[k].frame.image.astype(float)
+    shown = cv2.cvtColor(frames[k], cv2.COLOR_BGR2RGB).astype(float)
+    assert np.median(shown[2:12, 2:200]) < 0.6 * np.median(raw[2:12, 2:200])  # darkened header
+    img = VideoSink(path.with_name("x.mp4"), fps=10).annotate(records[k])
+    tr, a = records[k].tracks, records[k].assessments
+    for box, risk in zip(tr.xyxy, a.risk, strict=True):
+        x0, y0, _, y1 = np.round(box).astype(int)
+        ym = (y0 + y1) // 2
+        assert np.abs(img[ym, x0].astype(int) - risk_colour(int(risk))).max() < 60
+
+
+def test_alert_banner_shows_the_latest_alert_reason(rendered):
+    _, path, _, records, _ = rendered
+    r = next(r for r in records if len(r.tracks.track_id))
+    tid = int(r.tracks.track_id[0])
+    al = Alert(r.t, tid, "critical", int(Risk.CRITICAL), 0, 9.5, 1.1, 4, 4, "CRITICAL: test", "极高风险：测试")
+    sink = VideoSink(path.with_name("y.mp4"), fps=10)
+    with_alert = sink.annotate(dataclasses.replace(r, alerts=[al]))
+    h = sink._style.text.line_h + sink._style.pad
+    row = with_alert[h + 5, :, :].astype(int)
+    assert (np.abs(row - risk_colour(Risk.CRITICAL)).max(axis=1) < 30).mean() > 0.5  # a red banner
+    cleared = dataclasses.replace(r, alerts=[dataclasses.replace(al, kind="clear", level=0)])
+    row = sink.annotate(cleared)[h + 5, :, :].astype(int)
+    assert (np.abs(row - risk_colour(Risk.CRITICAL)).max(axis=1) < 30).mean() < 0.5
+
+
+def test_frames_without_image_are_skipped_with_one_warning(tmp_path, caplog):
+    sc = short_scenario(1.0)
+    sink = VideoSink(tmp_path / "none.mp4", fps=sc.camera.rate)
+    with caplog.at_level(logging.WARNING, logger="tools.video"):
+        summary = Runner(sc, sinks=[sink], render=False).run()
+    assert summary.frames > 1 and sink.frames_written == 0
+    assert len([m for m in caplog.messages if "rendering off" in m]) == 1
+
+
+def test_zh_without_a_cjk_font_warns_once_and_falls_back(monkeypatch, tmp_path, caplog):
+    monkeypatch.setattr(video, "find_cjk_font", lambda *a, **k: None)
+    monkeypatch.setattr(video, "_FONT_WARNED", False)
+    with caplog.at_level(logging.WARNING, logger="tools.video"):
+        sinks = [VideoSink(tmp_path / f"{i}.mp4", fps=10, lang="zh") for i in range(2)]
+    assert [s.lang for s in sinks] == ["en", "en"]
+    msgs = [m for m in caplog.messages if "no CJK font found" in m]
+    assert len(msgs) == 1 and "fonts-noto-cjk" in msgs[0] and "falling back to English" in msgs[0]
+
+
+@pytest.mark.skipif(find_cjk_font() is None, reason="no CJK font installed")
+def test_zh_draws_chinese_labels(rendered, tmp_path):
+    _, _, _, records, _ = rendered
+    r = next(r for r in records if len(r.tracks.track_id))
+    zh = VideoSink(tmp_path / "zh.mp4", fps=10, lang="zh")
+    assert zh.lang == "zh"
+    en_img = VideoSink(tmp_path / "en.mp4", fps=10).annotate(r)
+    zh_img = zh.annotate(r)
+    assert zh_img.shape == en_img.shape and np.any(zh_img != en_img)
+
+
+def test_bad_arguments():
+    with pytest.raises(ValueError, match="lang"):
+        VideoSink(Path("x.mp4"), fps=10, lang="fr")
+    with pytest.raises(ValueError, match="fps"):
+        VideoSink(Path("x.mp4"), fps=0)
+
+
+def test_font_search_by_file_name(monkeypatch, tmp_path):
+    monkeypatch.delenv(video.CJK_FONT_ENV, raising=False)
+    assert find_cjk_font(dirs=(str(tmp_path),), use_fc=False) is None
+    (tmp_path / "truetype" / "wqy").mkdir(parents=True)
+    font = tmp_path / "truetype" / "wqy" / "wqy-microhei.ttc"
+    font.write_bytes(b"")
+    find_cjk_font.cache_clear()
+    assert find_cjk_font(dirs=(str(tmp_path),), use_fc=False) == (str(font), 0)
+
+
+def test_unwritable_path_is_one_line_output_error(tmp_path):
+    from tools.rundir import OutputError
+
+    (tmp_path / "file").write_text("")
+    with pytest.raises(OutputError, match="video's directory"):
+        VideoSink(tmp_path / "file" / "a.mp4", fps=10).on_start({})

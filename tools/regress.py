@@ -1,0 +1,99 @@
+"""Regression gate: a suite's totals against a committed baseline, metric by metric.
+
+A metric *regresses* when it moves in its bad direction by more than its
+tolerance; the gate prints a Markdown table of every metric that moved and
+exits 1 on any regression. ``--update-baseline`` writes the current values.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+#: metric path -> (direction, tolerance): "up" = higher is better; the tolerance is absolute.
+TOLERANCES: dict[str, tuple[str, float]] = {
+    "detection.precision": ("up", 0.02),
+    "detection.recall": ("up", 0.02),
+    "detection.ap50": ("up", 0.02),
+    "tracking.mota": ("up", 0.02),
+    "tracking.idf1": ("up", 0.02),
+    "tracking.id_switches": ("down", 2),
+    "estimation.range_rel_err_median": ("down", 0.01),
+    "estimation.speed_err_median": ("down", 0.1),
+    "estimation.ttc_err_median": ("down", 0.02),
+    "intent.accuracy": ("up", 0.02),
+    "intent.macro_f1": ("up", 0.02),
+    "danger.miss_rate": ("down", 0.0),
+    "danger.false_alarm_rate": ("down", 0.02),
+    "danger.lead_time_s_median": ("up", 0.2),
+    "closed_loop.collisions": ("down", 0),
+    "expectations.failed": ("down", 0),
+}
+
+
+def flatten(totals: dict) -> dict[str, float | None]:
+    """The watched metrics of a suite's ``totals``."""
+    out: dict[str, float | None] = {}
+    for path in TOLERANCES:
+        section, key = path.split(".", 1)
+        out[path] = (totals.get(section) or {}).get(key)
+    return out
+
+
+def compare(current: dict[str, float | None], baseline: dict[str, float | None],
+            tolerances: dict[str, tuple[str, float]] | None = None) -> list[dict]:
+    """One row per metric: baseline, current, delta, and whether it regressed."""
+    tol = {**TOLERANCES, **(tolerances or {})}
+    rows = []
+    for path, (direction, limit) in tol.items():
+        base, cur = baseline.get(path), current.get(path)
+        if base is None and cur is None:
+            continue
+        if base is None or cur is None:
+            rows.append({"metric": path, "baseline": base, "current": cur, "delta": None,
+                         "regressed": base is not None, "tolerance": limit, "direction": direction})
+            continue
+        delta = cur - base
+        worse = -delta if direction == "up" else delta
+        rows.append({"metric": path, "baseline": base, "current": cur, "delta": delta,
+                     "regressed": worse > limit + 1e-12, "tolerance": limit, "direction": direction})
+    return rows
+
+
+def markdown(rows: list[dict], only_moved: bool = True) -> str:
+    def f(v: object) -> str:
+        return "—" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    lines = ["| metric | baseline | current | change | tolerance | verdict |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        if only_moved and r["delta"] == 0 and not r["regressed"]:
+            continue
+        verdict = "**REGRESSED**" if r["regressed"] else "ok"
+        sign = "" if r["delta"] is None else ("+" if r["delta"] >= 0 else "")
+        better = "higher is better" if r["direction"] == "up" else "lower is better"
+        lines.append(f"| {r['metric']} | {f(r['baseline'])} | {f(r['current'])} | {sign}{f(r['delta'])} "
+                     f"| {f(r['tolerance'])} ({better}) | {verdict} |")
+    if len(lines) == 2:
+        lines.append("| (nothing moved) | | | | | |")
+    return "\n".join(lines)
+
+
+class BaselineError(ValueError):
+    """A baseline file that cannot be used; one line."""
+
+
+def load_baseline(path: Path) -> dict:
+    try:
+        data = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: no such baseline file (create it with --update-baseline)") from None
+    except json.JSONDecodeError as e:
+        raise BaselineError(f"{path}:{e.lineno}: baseline is not valid JSON ({e.msg})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("metrics"), dict):
+        raise BaselineError(f"{path}: baseline needs a 'metrics' mapping")
+    return data
+
+
+def write_baseline(path: Path, suite: str, metrics: dict) -> None:
+    tol = {k: list(v) for k, v in TOLERANCES.items()}
+    Path(path).write_text(json.dumps({"suite": suite, "metrics": metrics, "tolerances": tol}, indent=2) + "\n")

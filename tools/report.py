@@ -1,0 +1,585 @@
+"""``lookahead report``: one self-contained ``report.html`` for a run or a suite directory.
+
+A run page holds the headline numbers, the expectations, every ``metrics.json``
+section as tables, four matplotlib figures (intent confusion matrix, range
+error vs true range, TTC over time per actor with alerts, per-stage timing)
+and the annotated key frames saved in ``frames/*.png`` (``tools/demo.py``'s
+``KeyFrameSink``) when there are any. Images are inlined as base64 PNG and the
+CSS is inline: the page opens offline and can be mailed as one file.
+
+A suite page (a directory with ``summary.json``) has one row per scenario with
+its key metrics and a relative link to that run's own report (built too), and
+a totals row. Run directories without ``metrics.json`` are scored first.
+
+Figure data, from ``ticks.jsonl``:
+* range error: per frame, reported tracks matched one-to-one to GT visible
+  boxes by IoU >= 0.5 (``tools.scoring.estimation.match_pairs``, the pairs the
+  ``estimation`` section scores); initializing tracks are left out; the pairs
+  inside the scored set (unoccluded, 5..50 m) are drawn in colour.
+* TTC: the same matching (with track and actor ids) gives each actor's
+  predicted TTC dots; an alert belongs to the actor its track is matched with
+  most often (unassociated alerts are drawn dotted in every panel). Actors are
+  those with an alert, a danger label or a true TTC under ``TTC_PLOT_MAX_S``,
+  nearest-TTC first, at most ``MAX_TTC_PANELS``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import logging
+import sys
+from collections import Counter, defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+REPORT_FILE = "report.html"
+SUMMARY_FILE = "summary.json"
+TTC_PLOT_MAX_S = 10.0
+MAX_TTC_PANELS = 6
+MAX_KEY_FRAMES = 12
+_NEVER = 1e8  # TTC values at or above this are "never" (written as 1e9)
+_STAGE_ORDER = ("sim", "render", "gt", "detect", "track", "estimate", "intent", "sinks", "tick")
+_LEVEL_COLOURS = {1: "#9aa0a6", 2: "#f4b400", 3: "#ff6d00", 4: "#d50000"}
+_LEVEL_NAMES = {0: "SAFE", 1: "LOW", 2: "MEDIUM", 3: "HIGH", 4: "CRITICAL"}
+
+
+class ReportError(ValueError):
+    """The path is neither a run directory nor a suite directory; ``str()`` is one line."""
+
+
+# --------------------------------------------------------------------------- figures
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _png(fig) -> str:
+    """Base64 PNG of a matplotlib figure (closed afterwards)."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
+    _plt().close(fig)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def confusion_figure(confusion: dict) -> str | None:
+    """Heatmap of the intent confusion matrix (rows truth, columns prediction)."""
+    labels, m = confusion.get("labels") or [], np.asarray(confusion.get("matrix") or [], dtype=float)
+    if not labels or m.size == 0:
+        return None
+    plt = _plt()
+    rows = m.sum(axis=1, keepdims=True)
+    norm = np.divide(m, rows, out=np.zeros_like(m), where=rows > 0)
+    fig, ax = plt.subplots(figsize=(4.8, 4.0))
+    im = ax.imshow(norm, cmap="Blues", vmin=0, vmax=1)
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            ax.text(j, i, f"{int(m[i, j])}", ha="center", va="center",
+                    color="white" if norm[i, j] > 0.6 else "black", fontsize=10)
+    ax.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
+    ax.set_yticks(range(len(labels)), labels)
+    ax.set_xlabel("predicted")
+    ax.set_ylabel("ground truth")
+    ax.set_title("intent labels (counts; colour = row share)")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+    return _png(fig)
+
+
+def range_error_figure(run_dir: Path) -> str | None:
+    """Scatter of estimated − true range vs true range over matched (track, GT) pairs."""
+    from tools.scoring import estimation as est
+    from tools.scoring.io import load_run
+
+    run = load_run(run_dir)
+    if run.tracks is None:
+        return None
+    pairs = [est.match_pairs(g, t) for g, t in zip(run.gt, run.tracks, strict=True)]
+    p = {k: np.concatenate([f[k] for f in pairs]) for k in ("init", "r_hat", "r", "vf", "trunc")}
+    keep = ~p["init"] & np.isfinite(p["r_hat"]) & np.isfinite(p["r"])
+    if not keep.any():
+        return None
+    r, err = p["r"][keep], p["r_hat"][keep] - p["r"][keep]
+    scored = ((p["vf"][keep] >= est.UNOCCLUDED_MIN_VISIBLE_FRACTION)
+              & (p["trunc"][keep] < est.UNOCCLUDED_MAX_TRUNCATION)
+              & (r >= est.RANGE_MIN_M) & (r <= est.RANGE_MAX_M))
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    xs = np.linspace(0, max(float(r.max()), 1.0) * 1.05, 50)
+    for frac, style in ((0.05, ":"), (0.10, "--")):
+        ax.plot(xs, frac * xs, style, color="#888", lw=0.8, label=f"±{frac:.0%} of range")
+        ax.plot(xs, -frac * xs, style, color="#888", lw=0.8)
+    ax.axhline(0, color="black", lw=0.8)
+    ax.scatter(r[~scored], err[~scored], s=12, c="#bbb", label="occluded / truncated / out of 5–50 m")
+    ax.scatter(r[scored], err[scored], s=14, c="#1a73e8", label="scored (unoccluded, 5–50 m)")
+    ax.set_xlabel("true range (m)")
+    ax.set_ylabel("estimated − true range (m)")
+    ax.set_title(f"range error vs distance ({len(r)} matched pairs)")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3)
+    return _png(fig)
+
+
+@dataclass
+class _Timeline:
+    """Per-actor TTC series and alerts of one run (``TTC over time`` figure)."""
+
+    t: list[float] = field(default_factory=list)
+    names: dict[int, str] = field(default_factory=dict)
+    true_ttc: dict[int, dict[int, float]] = field(default_factory=lambda: defaultdict(dict))
+    danger: dict[int, set[int]] = field(default_factory=lambda: defaultdict(set))
+    pred: dict[int, list[tuple[int, float]]] = field(default_factory=lambda: defaultdict(list))
+    owner_votes: dict[int, Counter] = field(default_factory=lambda: defaultdict(Counter))
+    alerts: list[dict] = field(default_factory=list)
+    collisions: list[dict] = field(default_factory=list)
+
+    def owner(self, track_id: int) -> int | None:
+        votes = self.owner_votes.get(track_id)
+        return votes.most_common(1)[0][0] if votes else None
+
+
+def _read_ticks(run_dir: Path) -> list[dict]:
+    """The records of ``ticks.jsonl``; ``RunDirError`` naming file and line when malformed."""
+    from tools.scoring.io import RunDirError
+
+    path = run_dir / "ticks.jsonl"
+    out = []
+    for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if line.strip():
+            try:
+                out.append(json.loads(line))
+            except json.JSONDecodeError as e:
+                raise RunDirError(f"{path}:{lineno}: not valid JSON ({e.msg})") from None
+    return out
+
+
+def _timeline(run_dir: Path, records: list[dict]) -> _Timeline:
+    from intent.labels import Label
+    from tools.scoring.io import load_run
+    from tools.scoring.matching import class_iou, hungarian_match
+
+    run = load_run(run_dir)
+    tl = _Timeline()
+    for f, rec in enumerate(records):
+        tl.t.append(float(rec["t"]))
+        gt = rec["ground_truth"]
+        for i, a in enumerate(gt["actor_id"]):
+            tl.names[a] = gt["name"][i]
+            ttc = gt["ttc"][i]
+            tl.true_ttc[a][f] = np.nan if ttc is None or ttc >= _NEVER else float(ttc)
+            if gt["label"][i] == int(Label.DANGER):
+                tl.danger[a].add(f)
+        tl.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
+        tl.collisions += [{**c, "t": rec["t"]} for c in rec.get("collisions") or []]
+        if run.tracks is None:
+            continue
+        g, trk = run.gt[f], run.tracks[f]
+        trk = trk[trk.reported]
+        ti, gi = hungarian_match(class_iou(trk.xyxy, None, g.visible, None))
+        for t_idx, g_idx in zip(ti.tolist(), gi.tolist(), strict=True):
+            actor, tid = int(g.actor_id[g_idx]), int(trk.track_id[t_idx])
+            tl.owner_votes[tid][actor] += 1
+            ttc = float(trk.ttc[t_idx])
+            if not trk.initializing[t_idx] and np.isfinite(ttc) and ttc < _NEVER:
+                tl.pred[actor].append((f, ttc))
+    return tl
+
+
+def _ttc_actors(tl: _Timeline) -> list[int]:
+    alerted = {tl.owner(int(a["track_id"])) for a in tl.alerts if a.get("level", 0) > 0}
+
+    def min_ttc(a: int) -> float:
+        v = [x for x in tl.true_ttc[a].values() if np.isfinite(x)]
+        return min(v) if v else np.inf
+
+    chosen = [a for a in tl.names if a in alerted or tl.danger.get(a) or min_ttc(a) < TTC_PLOT_MAX_S]
+    return sorted(chosen, key=lambda a: (min_ttc(a), a))[:MAX_TTC_PANELS]
+
+
+def ttc_figure(run_dir: Path, records: list[dict]) -> str | None:
+    """True TTC (line) and predicted TTC (dots) per actor over time, alerts as vertical lines."""
+    tl = _timeline(run_dir, records)
+    actors = _ttc_actors(tl)
+    if not actors or not tl.t:
+        return None
+    plt = _plt()
+    t = np.asarray(tl.t)
+    fig, axes = plt.subplots(len(actors), 1, figsize=(9.0, 1.9 * len(actors) + 0.6), sharex=True, squeeze=False)
+    for ax, actor in zip(axes[:, 0], actors, strict=True):
+        series = np.full(len(t), np.nan)
+        for f, v in tl.true_ttc[actor].items():
+            series[f] = v
+        for f in sorted(tl.danger.get(actor, ())):
+            ax.axvspan(t[f] - 0.05, t[f] + 0.05, color="#fde0dc", lw=0)
+        ax.plot(t, np.clip(series, 0, TTC_PLOT_MAX_S), color="black", lw=1.5, label="true TTC")
+        if tl.pred.get(actor):
+            pf, pv = zip(*tl.pred[actor], strict=True)
+            ax.scatter(t[list(pf)], np.clip(pv, 0, TTC_PLOT_MAX_S), s=12, color="#1a73e8", zorder=3,
+                       label="predicted TTC (matched track)")
+        seen: set[str] = set()
+        for a in tl.alerts:
+            owner = tl.owner(int(a["track_id"]))
+            if owner not in (actor, None):
+                continue
+            level = int(a.get("level", 0))
+            name = a.get("level_name") or _LEVEL_NAMES.get(level, str(level))
+            tag = f"alert {a.get('kind', '')} {name}" + (" (unassociated)" if owner is None else "")
+            ax.axvline(float(a["t"]), color=_LEVEL_COLOURS.get(level, "#9aa0a6"), lw=1.4,
+                       ls=":" if owner is None else "--" if level == 0 else
+                       "-." if a.get("kind") == "downgrade" else "-",
+                       label=None if tag in seen else tag)
+            seen.add(tag)
+        for c in tl.collisions:
+            if c.get("name") == tl.names[actor]:
+                ax.axvline(float(c["t"]), color="black", lw=2.0, label="collision")
+        ax.set_ylim(0, TTC_PLOT_MAX_S)
+        ax.set_ylabel("TTC (s)")
+        ax.set_title(f"{tl.names[actor]} (id {actor}); shaded: ground-truth danger", fontsize=9, loc="left")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.01, 0.5))
+    axes[-1, 0].set_xlabel("t (s)")
+    axes[-1, 0].set_xlim(0, float(t[-1]) + 0.1)
+    fig.suptitle(f"time to collision per actor (capped at {TTC_PLOT_MAX_S:.0f} s)", fontsize=11)
+    return _png(fig)
+
+
+def timing_figure(timing: dict) -> str | None:
+    """Horizontal bars of per-stage median and p95 ms."""
+    stages = [s for s in _STAGE_ORDER if s in timing] + sorted(set(timing) - set(_STAGE_ORDER))
+    if not stages:
+        return None
+    plt = _plt()
+    y = np.arange(len(stages))
+    med = [timing[s].get("median") or 0.0 for s in stages]
+    p95 = [timing[s].get("p95") or 0.0 for s in stages]
+    fig, ax = plt.subplots(figsize=(6.4, 0.35 * len(stages) + 1.2))
+    ax.barh(y - 0.2, med, 0.4, color="#1a73e8", label="median")
+    ax.barh(y + 0.2, p95, 0.4, color="#f4b400", label="p95")
+    ax.set_yticks(y, stages)
+    ax.invert_yaxis()
+    ax.set_xlabel("ms per camera frame")
+    ax.set_title("per-stage timing")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    ax.grid(axis="x", alpha=0.3)
+    return _png(fig)
+
+
+# --------------------------------------------------------------------------- HTML pieces
+
+_CSS = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:24px auto;max-width:1200px;
+color:#202124;padding:0 16px}
+h1{font-size:24px;margin-bottom:4px}h2{font-size:18px;margin-top:28px;border-bottom:1px solid #dadce0;
+padding-bottom:4px}h3{font-size:15px;margin:14px 0 6px}
+.sub{color:#5f6368;margin-top:0}
+table{border-collapse:collapse;margin:6px 0 12px;font-size:13px}
+th,td{border:1px solid #dadce0;padding:3px 8px;text-align:right}th{background:#f1f3f4}
+td.l,th.l{text-align:left}
+.pass{background:#e6f4ea;color:#137333}.fail{background:#fce8e6;color:#c5221f}
+.cards{display:flex;flex-wrap:wrap;gap:10px;margin:12px 0}
+.card{border:1px solid #dadce0;border-radius:8px;padding:8px 12px;min-width:120px}
+.card .v{font-size:20px;font-weight:600}.card .k{font-size:12px;color:#5f6368}
+.grid{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}
+.sec{flex:0 1 auto}
+img.fig{max-width:100%;border:1px solid #eee}
+.frames{display:flex;flex-wrap:wrap;gap:8px}
+.frames figure{margin:0;flex:1 1 360px;max-width:32%}.frames img{width:100%}
+figcaption{font-size:12px;color:#5f6368}
+.muted{color:#9aa0a6}
+"""
+
+
+def _e(x: object) -> str:
+    return html.escape(str(x), quote=True)
+
+
+def _fmt(v: object) -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        if abs(v) >= _NEVER:
+            return "never"
+        return f"{v:.0f}" if abs(v) >= 1000 else f"{v:.3g}"
+    if isinstance(v, dict | list):
+        return json.dumps(v, separators=(", ", ": "))
+    return str(v)
+
+
+def _img(b64: str | None, alt: str) -> str:
+    if b64 is None:
+        return f'<p class="muted">{_e(alt)}: no data</p>'
+    return f'<img class="fig" alt="{_e(alt)}" src="data:image/png;base64,{b64}">'
+
+
+def _align(value: object, column: int) -> str:
+    """CSS class: text left, numbers right."""
+    numeric = value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+    return "" if numeric and column > 0 else "l"
+
+
+def _table(header: list[str], rows: list[list[object]], classes: list[str] | None = None) -> str:
+    first = rows[0] if rows else [None] * len(header)
+    head = "".join(f'<th class="{_align(c, i)}">{_e(h)}</th>' for i, (h, c) in enumerate(zip(header, first, strict=True)))
+    body = []
+    for k, row in enumerate(rows):
+        cls = f' class="{classes[k]}"' if classes and classes[k] else ""
+        cells = "".join(f'<td class="{_align(c, i)}">{_e(_fmt(c))}</td>' for i, c in enumerate(row))
+        body.append(f"<tr{cls}>{cells}</tr>")
+    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
+
+
+def _section_tables(name: str, sec: dict) -> str:
+    """A key/value table of a section's scalars plus tables of its nested parts."""
+    scalars = [[k, v] for k, v in sec.items() if not isinstance(v, dict | list)]
+    out = [f'<div class="sec"><h3>{_e(name)}</h3>', _table(["metric", "value"], scalars) if scalars else ""]
+    per_class = sec.get("per_class")
+    if isinstance(per_class, dict) and per_class:
+        cols = list(dict.fromkeys(k for v in per_class.values() if isinstance(v, dict) for k in v))
+        rows = [[c, *[(v or {}).get(k) for k in cols]] for c, v in per_class.items()]
+        out.append(_table(["class", *cols], rows))
+    events = sec.get("event_list")
+    if isinstance(events, list) and events:
+        cols = list(dict.fromkeys(k for e in events for k in e))
+        out.append(_table(cols, [[e.get(k) for k in cols] for e in events]))
+    out.append("</div>")
+    return "".join(out)
+
+
+def _cards(metrics: dict) -> str:
+    d, t, e = metrics.get("detection", {}), metrics.get("tracking", {}), metrics.get("estimation", {})
+    i, dg, cl = metrics.get("intent", {}), metrics.get("danger", {}), metrics.get("closed_loop", {})
+    exp = metrics.get("expectations") or []
+    items = [
+        ("detection recall", d.get("recall")), ("detection precision", d.get("precision")),
+        ("MOTA", t.get("mota")), ("IDF1", t.get("idf1")),
+        ("range rel. error (median)", e.get("range_rel_err_median")),
+        ("intent accuracy", i.get("accuracy")), ("intent macro F1", i.get("macro_f1")),
+        ("danger events missed", f"{dg.get('missed', '—')} / {dg.get('events', '—')}"),
+        ("false alarms / alerts", f"{dg.get('false_alarms', '—')} / {dg.get('alerts', '—')}"),
+        ("warning lead time (median s)", dg.get("lead_time_s_median")),
+        *_outcome_cards(cl, exp),
+    ]
+    cards = "".join(f'<div class="card"><div class="v">{_e(_fmt(v))}</div><div class="k">{_e(k)}</div></div>'
+                    for k, v in items)
+    return f'<div class="cards">{cards}</div>'
+
+
+def _outcome_cards(cl: dict, exp: list | dict) -> list[tuple[str, object]]:
+    """Collision and expectation cards of a run, or of suite totals (counts)."""
+    if "runs" in cl:  # suite totals
+        passed = f"{exp.get('total', 0) - exp.get('failed', 0)} / {exp.get('total', 0)}" if exp else None
+        return [("runs with a collision", f"{cl.get('collisions')} / {cl.get('runs')}"),
+                ("max impact speed (m/s)", cl.get("impact_speed_max")), ("expectations passed", passed)]
+    coll = (f"yes, {_fmt(cl.get('impact_speed'))} m/s" if cl.get("collision") else "no") if cl else None
+    passed = f"{sum(bool(x.get('passed')) for x in exp)} / {len(exp)}" if exp else None
+    return [("collision", coll), ("expectations passed", passed)]
+
+
+def _expectations(exp: list[dict]) -> str:
+    if not exp:
+        return '<p class="muted">the scenario has no expectations</p>'
+    rows = [["PASS" if x["passed"] else "FAIL", _fmt(x["expectation"]), x.get("detail", "")] for x in exp]
+    classes = ["pass" if x["passed"] else "fail" for x in exp]
+    return _table(["result", "expectation", "detail"], rows, classes)
+
+
+def _key_frames(run_dir: Path, records: list[dict]) -> str:
+    paths = sorted((run_dir / "frames").glob("*.png"))[:MAX_KEY_FRAMES]
+    if not paths:
+        return '<p class="muted">no key frames saved (frames/*.png; written by rendered demo runs)</p>'
+    times = {int(r.get("frame", k)): r["t"] for k, r in enumerate(records)}
+    figs = []
+    for p in paths:
+        digits = "".join(ch for ch in p.stem if ch.isdigit())
+        cap = p.name + (f" — t = {times[int(digits)]:.2f} s" if digits and int(digits) in times else "")
+        b64 = base64.b64encode(p.read_bytes()).decode("ascii")
+        figs.append(f'<figure><img alt="{_e(p.name)}" src="data:image/png;base64,{b64}">'
+                    f"<figcaption>{_e(cap)}</figcaption></figure>")
+    return f'<div class="frames">{"".join(figs)}</div>'
+
+
+def _timing_table(timing: dict) -> str:
+    stages = [s for s in _STAGE_ORDER if s in timing] + sorted(set(timing) - set(_STAGE_ORDER))
+    rows = [[s, timing[s].get("median"), timing[s].get("p95")] for s in stages]
+    return _table(["stage", "median ms", "p95 ms"], rows) if rows else ""
+
+
+def _page(title: str, body: str) -> str:
+    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{_e(title)}</title>'
+            f"<style>{_CSS}</style></head><body>{body}</body></html>\n")
+
+
+# --------------------------------------------------------------------------- run and suite pages
+
+
+def _ensure_metrics(run_dir: Path) -> dict:
+    from tools.score import score_run
+    from tools.scoring.io import read_metrics
+
+    if not (run_dir / "metrics.json").is_file():
+        log.info("%s: no metrics.json, scoring first", run_dir)
+        return score_run(run_dir)
+    return read_metrics(run_dir)
+
+
+def build_run_report(run_dir: Path) -> Path:
+    """Write ``run_dir/report.html``; returns its path."""
+    run_dir = Path(run_dir)
+    metrics = _ensure_metrics(run_dir)
+    run_json = run_dir / "run.json"
+    run = json.loads(run_json.read_text(encoding="utf-8")) if run_json.is_file() else {}
+    records = _read_ticks(run_dir)
+    sc = run.get("scenario") or {}
+    summ = run.get("summary") or {}
+    name = sc.get("name", run_dir.name)
+    sub = (f"seed {run.get('seed', '—')} · {summ.get('frames', len(records))} frames · "
+           f"t end {_fmt(summ.get('t_end'))} s · renderer {run.get('renderer') or 'none'} · "
+           f"config {run.get('config_hash', '—')}")
+    order = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "timing")
+    sections = [k for k in order if isinstance(metrics.get(k), dict) and k != "timing"]
+    sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order]
+    body = [
+        f"<h1>{_e(name)}</h1>",
+        f'<p class="sub">{_e(sc.get("description", ""))}</p><p class="sub">{_e(sub)}</p>',
+        _cards(metrics),
+        "<h2>Expectations</h2>", _expectations(metrics.get("expectations") or []),
+        "<h2>Time to collision</h2>", _img(ttc_figure(run_dir, records), "TTC over time"),
+        "<h2>Intent</h2>", '<div class="grid">',
+        _img(confusion_figure((metrics.get("intent") or {}).get("confusion") or {}), "intent confusion matrix"),
+        "</div>",
+        "<h2>Range estimation</h2>", _img(range_error_figure(run_dir), "range error vs distance"),
+        "<h2>Timing</h2>", '<div class="grid">',
+        _img(timing_figure(metrics.get("timing") or {}), "per-stage timing"),
+        _timing_table(metrics.get("timing") or {}),
+        "</div>",
+        "<h2>Key frames</h2>", _key_frames(run_dir, records),
+        "<h2>Metrics</h2>", '<div class="grid">', *[_section_tables(k, metrics[k]) for k in sections], "</div>",
+    ]
+    out = run_dir / REPORT_FILE
+    out.write_text(_page(f"lookahead report: {name}", "".join(body)), encoding="utf-8")
+    log.info("report written: %s", out)
+    return out
+
+
+_SUITE_COLS = (
+    ("recall", "detection", "recall"), ("precision", "detection", "precision"),
+    ("MOTA", "tracking", "mota"), ("IDF1", "tracking", "idf1"),
+    ("range rel err", "estimation", "range_rel_err_median"), ("speed err m/s", "estimation", "speed_err_median"),
+    ("intent acc", "intent", "accuracy"), ("macro F1", "intent", "macro_f1"),
+    ("danger events", "danger", "events"), ("missed", "danger", "missed"),
+    ("false alarms", "danger", "false_alarms"), ("lead time s", "danger", "lead_time_s_median"),
+)
+
+
+def _suite_cells(metrics: dict) -> list[tuple[object, str]]:
+    """(value, CSS class) cells of one scenario row after the name."""
+    cells: list[tuple[object, str]] = [(metrics.get(s, {}).get(k), "") for _, s, k in _SUITE_COLS]
+    cl = metrics.get("closed_loop") or {}
+    if cl.get("collision"):
+        cells.append((f"{cl.get('collided_with')} at {_fmt(cl.get('impact_speed'))} m/s", "fail l"))
+    else:
+        cells.append(("no", "pass l"))
+    exp = metrics.get("expectations") or []
+    passed = sum(bool(x.get("passed")) for x in exp)
+    state = "" if not exp else "pass" if passed == len(exp) else "fail"
+    cells.append((f"{passed}/{len(exp)}" if exp else "—", state))
+    return cells
+
+
+def _suite_totals_cells(totals: dict) -> list[tuple[object, str]]:
+    cells: list[tuple[object, str]] = [(totals.get(s, {}).get(k), "") for _, s, k in _SUITE_COLS]
+    cl, exp = totals.get("closed_loop") or {}, totals.get("expectations") or {}
+    cells.append((f"{cl.get('collisions', '—')} of {cl.get('runs', '—')} runs", "l"))
+    if isinstance(exp, dict) and exp.get("total"):
+        cells.append((f"{exp['total'] - exp.get('failed', 0)}/{exp['total']}", ""))
+    else:
+        cells.append(("—", ""))
+    return cells
+
+
+def _row(first: str, cells: list[tuple[object, str]], last: str = "", style: str = "") -> str:
+    """A table row: raw HTML first and last cells around escaped, formatted values."""
+    tds = "".join(f'<td class="{cls}">{_e(_fmt(v))}</td>' for v, cls in cells)
+    return f'<tr{style}><td class="l">{first}</td>{tds}<td class="l">{last}</td></tr>'
+
+
+def build_suite_report(suite_dir: Path) -> Path:
+    """Write each run's report and ``suite_dir/report.html`` (one row per scenario)."""
+    suite_dir = Path(suite_dir)
+    summary = json.loads((suite_dir / SUMMARY_FILE).read_text(encoding="utf-8"))
+    runs = summary.get("runs") or {}
+    rows = []
+    for name, entry in runs.items():
+        rel = str((entry or {}).get("dir") or name) if isinstance(entry, dict) else str(name)
+        run_dir = suite_dir / rel
+        if not (run_dir / "ticks.jsonl").is_file():
+            log.warning("%s: run directory missing, skipped", run_dir)
+            continue
+        build_run_report(run_dir)
+        href = _e(f"{rel}/{REPORT_FILE}")
+        cells = _suite_cells(_ensure_metrics(run_dir))
+        rows.append(_row(f'<a href="{href}">{_e(name)}</a>', cells, f'<a href="{href}">report</a>'))
+    totals = summary.get("totals") or {}
+    if totals:
+        rows.append(_row("TOTAL", _suite_totals_cells(totals), style=' style="font-weight:600"'))
+    header = ["scenario", *[c[0] for c in _SUITE_COLS], "collision", "expectations", "report"]
+    head = "".join(f'<th class="{"l" if h in ("scenario", "report") else ""}">{_e(h)}</th>' for h in header)
+    title = f"suite {summary.get('suite', suite_dir.name)}"
+    body = (f"<h1>{_e(title)}</h1><p class=\"sub\">{len(rows) - bool(totals)} scenarios · rendered: "
+            f"{_e(_fmt(summary.get('render')))} · red: a collision or a failed expectation; "
+            "click a scenario for its report</p>"
+            f'<table class="suite"><tr>{head}</tr>{"".join(rows)}</table>')
+    if totals:
+        body += "<h2>Suite totals</h2>" + _cards(totals)
+        body += '<div class="grid">' + _img(
+            confusion_figure((totals.get("intent") or {}).get("confusion") or {}), "suite intent confusion matrix"
+        ) + _img(timing_figure(totals.get("timing") or {}), "suite per-stage timing") + "</div>"
+    out = suite_dir / REPORT_FILE
+    out.write_text(_page(f"lookahead {title}", body), encoding="utf-8")
+    log.info("suite report written: %s", out)
+    return out
+
+
+def build_report(path: Path) -> Path:
+    """``report.html`` for a run directory (``ticks.jsonl``) or a suite directory
+    (``summary.json``); returns its path. Raises ``ReportError`` for anything else."""
+    path = Path(path)
+    if not path.is_dir():
+        raise ReportError(f"{path}: no such directory")
+    if (path / "ticks.jsonl").is_file():
+        return build_run_report(path)
+    if (path / SUMMARY_FILE).is_file():
+        return build_suite_report(path)
+    raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")
+
+
+def report_command(path: Path) -> int:
+    """CLI body of ``lookahead report RUN_DIR|SUITE_DIR``: 0, or 2 with one ``error:`` line."""
+    from tools.scoring.io import RunDirError
+
+    try:
+        out = build_report(Path(path))
+    except (ReportError, RunDirError, OSError, ValueError, KeyError) as exc:
+        msg = f"{exc.filename}: {exc.strerror}" if isinstance(exc, OSError) and exc.filename else str(exc)
+        print(f"error: {msg}", file=sys.stderr)
+        return 2
+    print(out)
+    return 0
+
+
+if __name__ == "__main__":
+    logging.basicConfig(level=logging.INFO)
+    sys.exit(report_command(Path(sys.argv[1])) if len(sys.argv) == 2 else 2)

@@ -1,0 +1,358 @@
+"""The ``intent``, ``danger``, ``closed_loop`` and ``expectations`` sections of metrics.json.
+
+Definitions (documented constants):
+
+* Matching: per frame, reported tracks (confirmed or briefly coasting) to ground-truth visible boxes by
+  Hungarian IoU >= 0.5, class-agnostic (class errors are the detection
+  section's business). Unmatched objects and tracks are left to the tracking
+  metrics; predictions still ``initializing`` are don't-care.
+* Intent label time tolerance ``LABEL_TOLERANCE_S`` = 0.3 s: a prediction
+  counts as correct when the object's ground-truth label equals it at any time
+  within ±0.3 s (labels change at thresholds; a 3-frame slack at 10 Hz).
+* Danger event: a maximal run of frames in which an object's ground-truth
+  label is ``danger`` (gaps of up to ``EPISODE_GAP_FRAMES`` merged), counted
+  only if the object was visible in the image at some frame of it.
+* Warned: an alert >= HIGH (``fcw`` or ``critical`` event) on a track
+  associated with that object, issued from ``ALERT_LEAD_WINDOW_S`` = 1 s before
+  the episode starts until it ends. Lead time = the object's ground-truth TTC
+  when the first such alert was issued.
+* False alarm: an alert >= HIGH whose object has no danger frame from
+  ``FA_BEFORE_S`` = 0.5 s before to ``FA_AFTER_S`` = 1 s after the alert, or
+  whose track is associated with no object.
+* A track's object: the ground-truth actor it is matched with most often.
+* ``ttc_when_first_visible``: the object's true TTC at the first frame it was
+  visible (1e9 when not closing): a warning cannot come earlier than that.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter, defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from intent.labels import LABEL_NAMES, Label, Risk
+from tools.scoring.io import RunDirError
+from tools.scoring.matching import hungarian_match
+
+LABEL_TOLERANCE_S = 0.3
+EPISODE_GAP_FRAMES = 2
+ALERT_LEAD_WINDOW_S = 1.0
+FA_BEFORE_S = 0.5
+FA_AFTER_S = 1.0
+IOU_THRESHOLD = 0.5
+SCORED_LABELS = (Label.STABLE, Label.APPROACHING, Label.RECEDING, Label.DANGER)
+_RISK = {r.name: int(r) for r in Risk}
+
+
+@dataclass
+class IntentRun:
+    """What intent scoring needs from ``ticks.jsonl`` and ``run.json``."""
+
+    t: list[float] = field(default_factory=list)
+    gt_label: dict[int, dict[int, int]] = field(default_factory=lambda: defaultdict(dict))  # actor -> frame -> label
+    gt_ttc: dict[int, dict[int, float]] = field(default_factory=lambda: defaultdict(dict))
+    gt_visible: dict[int, set[int]] = field(default_factory=lambda: defaultdict(set))  # actor -> frames visible
+    gt_inpath_ttc: list[float] = field(default_factory=list)
+    names: dict[int, str] = field(default_factory=dict)
+    pairs: list[tuple[int, int, int, int]] = field(default_factory=list)  # frame, actor, track, predicted label
+    alerts: list[dict] = field(default_factory=list)
+    collisions: list[dict] = field(default_factory=list)
+    expect: list[dict] = field(default_factory=list)
+    aeb_frames: int = 0
+
+
+def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    from perception.geometry import iou_matrix
+
+    return iou_matrix(np.nan_to_num(a, nan=0.0), np.nan_to_num(b, nan=0.0))
+
+
+def load_intent_run(run_dir: Path) -> IntentRun:
+    run_dir = Path(run_dir)
+    path = run_dir / "ticks.jsonl"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file (not a run directory?)")
+    out = IntentRun()
+    run_json = run_dir / "run.json"
+    if run_json.is_file():
+        out.expect = list(json.loads(run_json.read_text()).get("scenario", {}).get("expect", []) or [])
+    with path.open(encoding="utf-8") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if not line.strip():
+                continue
+            try:
+                rec = json.loads(line)
+                f = len(out.t)
+                out.t.append(float(rec["t"]))
+                _read_frame(out, f, rec)
+            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
+                raise RunDirError(f"{path}:{lineno}: cannot read intent fields ({e})") from None
+    return out
+
+
+def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
+    gt = rec["ground_truth"]
+    ids = np.asarray(gt["actor_id"], dtype=np.int64)
+    vis = np.array([[np.nan if v is None else v for v in (b or [None] * 4)] for b in gt["visible"]],
+                   dtype=np.float64).reshape(-1, 4)
+    for i, a in enumerate(ids.tolist()):
+        out.names[a] = gt["name"][i]
+        out.gt_label[a][f] = int(gt["label"][i])
+        ttc = gt["ttc"][i]
+        out.gt_ttc[a][f] = float("inf") if ttc is None or ttc >= 1e9 else float(ttc)
+        if np.all(np.isfinite(vis[i])) and gt["class_id"][i] >= 0:
+            out.gt_visible[a].add(f)
+        if gt["in_path"][i]:
+            out.gt_inpath_ttc.append(out.gt_ttc[a][f])
+    tr, asm = rec.get("tracks"), rec.get("assessments")
+    if tr and asm and len(tr.get("track_id", [])):
+        state = np.array([s in ("confirmed", "lost", 1, 2) for s in tr["state"]])  # reported tracks
+        xyxy = np.asarray(tr["xyxy"], dtype=np.float64).reshape(-1, 4)[state]
+        tids = np.asarray(tr["track_id"], dtype=np.int64)[state]
+        labels = np.asarray(asm["label"], dtype=np.int64)[state]
+        ok = np.all(np.isfinite(vis), axis=1)
+        if len(tids) and ok.any():
+            iou = _iou(xyxy, vis[ok])
+            t_idx, g_idx = hungarian_match(iou, IOU_THRESHOLD)
+            gids = ids[ok]
+            for t, g in zip(t_idx.tolist(), g_idx.tolist(), strict=True):
+                out.pairs.append((f, int(gids[g]), int(tids[t]), int(labels[t])))
+    out.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
+    out.collisions += rec.get("collisions") or []
+    if rec.get("ego", {}).get("brake"):
+        out.aeb_frames += 1
+
+
+def _label_near(run: IntentRun, actor: int, f: int, label: int, tol_frames: int) -> bool:
+    timeline = run.gt_label[actor]
+    return any(timeline.get(k) == label for k in range(f - tol_frames, f + tol_frames + 1))
+
+
+def _frame_tolerance(run: IntentRun, seconds: float) -> int:
+    if len(run.t) < 2:
+        return 0
+    return int(round(seconds / float(np.median(np.diff(run.t)))))
+
+
+def evaluate_intent(run: IntentRun) -> dict:
+    tol = _frame_tolerance(run, LABEL_TOLERANCE_S)
+    n = len(SCORED_LABELS)
+    conf = np.zeros((n, n), dtype=np.int64)
+    index = {int(lab): i for i, lab in enumerate(SCORED_LABELS)}
+    for f, actor, _track, pred in run.pairs:
+        truth = run.gt_label[actor].get(f)
+        if pred == Label.INITIALIZING or truth not in index or pred not in index:
+            continue
+        eff = pred if _label_near(run, actor, f, pred, tol) else truth
+        conf[index[eff], index[pred]] += 1
+    total = int(conf.sum())
+    per_class, f1s = {}, []
+    for lab, i in index.items():
+        tp, fp, fn = conf[i, i], conf[:, i].sum() - conf[i, i], conf[i, :].sum() - conf[i, i]
+        p = tp / (tp + fp) if tp + fp else None
+        r = tp / (tp + fn) if tp + fn else None
+        f1 = 2 * p * r / (p + r) if p is not None and r is not None and p + r > 0 else (0.0 if (tp + fp + fn) else None)
+        name = LABEL_NAMES[Label(lab)]
+        per_class[name] = {"precision": _r(p), "recall": _r(r), "f1": _r(f1), "support": int(conf[i, :].sum())}
+        if conf[i, :].sum() > 0 or conf[:, i].sum() > 0:
+            f1s.append(f1 or 0.0)
+    return {
+        "accuracy": _r(np.trace(conf) / total) if total else None,
+        "macro_f1": _r(float(np.mean(f1s))) if f1s else None,
+        "per_class": per_class,
+        "confusion": {"labels": [LABEL_NAMES[Label(k)] for k in index], "matrix": conf.tolist()},
+        "n": total,
+        "tolerance_s": LABEL_TOLERANCE_S,
+    }
+
+
+def _episodes(frames: list[int]) -> list[tuple[int, int]]:
+    out: list[list[int]] = []
+    for f in sorted(frames):
+        if out and f - out[-1][1] <= EPISODE_GAP_FRAMES + 1:
+            out[-1][1] = f
+        else:
+            out.append([f, f])
+    return [(a, b) for a, b in out]
+
+
+def track_actors(run: IntentRun) -> dict[int, int]:
+    votes: dict[int, Counter] = defaultdict(Counter)
+    for _f, actor, track, _ in run.pairs:
+        votes[track][actor] += 1
+    return {t: c.most_common(1)[0][0] for t, c in votes.items()}
+
+
+def evaluate_danger(run: IntentRun) -> dict:
+    owner = track_actors(run)
+    frame_actor = {(f, tr): a for f, a, tr, _ in run.pairs}
+    raised = [a for a in run.alerts if a.get("kind") in ("fcw", "critical")]
+    for a in raised:
+        a["actor"] = frame_actor.get((a["frame"], a["track_id"]), owner.get(a["track_id"]))
+    t = np.asarray(run.t)
+    events, missed, leads = [], 0, []
+    danger_frames = {a: [f for f, lab in tl.items() if lab == Label.DANGER] for a, tl in run.gt_label.items()}
+    for actor, frames in danger_frames.items():
+        for start, end in _episodes(frames):
+            if not any(start <= f <= end for f in run.gt_visible[actor]):
+                continue
+            mine = [a for a in raised if a["actor"] == actor and t[start] - ALERT_LEAD_WINDOW_S <= a["t"] <= t[end]]
+            seen = [f for f in run.gt_visible[actor] if f <= end]
+            ttc_seen = run.gt_ttc[actor].get(min(seen), float("inf")) if seen else None
+            ev = {"actor": run.names.get(actor, str(actor)), "t_start": _r(t[start]), "t_end": _r(t[end]),
+                  "warned": bool(mine), "lead_time_s": None,
+                  "ttc_when_first_visible": _r(min(ttc_seen, 1e9)) if ttc_seen is not None else None}
+            if mine:
+                first = min(mine, key=lambda a: a["t"])
+                ttc = run.gt_ttc[actor].get(first["frame"], float("inf"))
+                ev["lead_time_s"] = _r(ttc) if np.isfinite(ttc) else None
+                if np.isfinite(ttc):
+                    leads.append(ttc)
+            else:
+                missed += 1
+            events.append(ev)
+    false_alarms = 0
+    for a in raised:
+        actor = a["actor"]
+        frames = danger_frames.get(actor, []) if actor is not None else []
+        if not any(a["t"] - FA_BEFORE_S <= t[f] <= a["t"] + FA_AFTER_S for f in frames):
+            false_alarms += 1
+            a["false_alarm"] = True
+    n_ev, n_al = len(events), len(raised)
+    return {
+        "events": n_ev,
+        "missed": missed,
+        "alerts": n_al,
+        "false_alarms": false_alarms,
+        "miss_rate": _r(missed / n_ev) if n_ev else None,
+        "false_alarm_rate": _r(false_alarms / n_al) if n_al else None,
+        "lead_time_s_median": _r(float(np.median(leads))) if leads else None,
+        "lead_time_s_min": _r(float(np.min(leads))) if leads else None,
+        "event_list": events,
+    }
+
+
+def evaluate_closed_loop(run: IntentRun) -> dict:
+    first = run.collisions[0] if run.collisions else None
+    finite = [x for x in run.gt_inpath_ttc if np.isfinite(x)]
+    return {
+        "collision": bool(first),
+        "impact_speed": _r(abs(first["relative_speed"])) if first else 0.0,
+        "collided_with": first["name"] if first else None,
+        "min_ttc": _r(min(finite)) if finite else None,
+        "aeb_active_s": _r(run.aeb_frames * (float(np.median(np.diff(run.t))) if len(run.t) > 1 else 0.0)),
+    }
+
+
+def evaluate_expectations(run: IntentRun, metrics: dict) -> list[dict]:
+    """Each scenario ``expect:`` item as passed / failed with a reason."""
+    out = []
+    danger = metrics.get("danger") or evaluate_danger(run)
+    closed = metrics.get("closed_loop") or evaluate_closed_loop(run)
+    by_name = {v: k for k, v in run.names.items()}
+    owner = track_actors(run)
+    for item in run.expect:
+        (kind, spec), = item.items() if len(item) == 1 else [("?", item)]
+        passed, detail = False, ""
+        if kind in ("alert", "no_alert"):
+            spec = spec or {}
+            actor = by_name.get(spec.get("actor"))
+            level = _RISK.get(str(spec.get("level_at_least", "HIGH")).upper(), int(Risk.HIGH))
+            hits = [a for a in run.alerts if a.get("level", 0) >= level and a.get("kind") in ("fcw", "critical")
+                    and (a.get("actor") if "actor" in a else owner.get(a["track_id"])) == actor]
+            if kind == "no_alert":
+                passed = not hits
+                detail = "no alert" if passed else f"{len(hits)} alert(s), first at t={hits[0]['t']:.2f} s"
+            elif not hits:
+                detail = f"no alert >= {Risk(level).name} for {spec.get('actor')}"
+            else:
+                first = min(hits, key=lambda a: a["t"])
+                ttc = run.gt_ttc[actor].get(first["frame"], float("inf"))
+                need = spec.get("before_ttc")
+                passed = need is None or ttc >= float(need)
+                detail = f"first {Risk(first['level']).name} alert at t={first['t']:.2f} s, true TTC {ttc:.2f} s"
+                if need is not None:
+                    detail += f" (needed >= {float(need):.2f} s)"
+        elif kind == "collision":
+            passed = closed["collision"] == bool(spec)
+            detail = f"collision with {closed['collided_with']} at {closed['impact_speed']} m/s" if closed["collision"] else "no collision"
+        elif kind == "max_impact_speed":
+            passed = (closed["impact_speed"] or 0.0) <= float(spec)
+            detail = f"impact speed {closed['impact_speed']} m/s"
+        elif kind == "danger_warned":
+            passed = danger["missed"] == 0
+            detail = f"{danger['missed']} of {danger['events']} danger events missed"
+        elif kind == "metric":
+            value = metrics.get(spec["section"], {}).get(spec["name"])
+            lo, hi = spec.get("min"), spec.get("max")
+            passed = value is not None and (lo is None or value >= lo) and (hi is None or value <= hi)
+            detail = f"{spec['section']}.{spec['name']} = {value}"
+        else:
+            detail = f"unknown expectation {kind!r}"
+        out.append({"expectation": item, "passed": bool(passed), "detail": detail})
+    return out
+
+
+def intent_sections(run: IntentRun) -> dict:
+    sections = {"intent": evaluate_intent(run), "danger": evaluate_danger(run), "closed_loop": evaluate_closed_loop(run)}
+    sections["expectations"] = evaluate_expectations(run, sections)
+    return sections
+
+
+def _r(x) -> float | None:
+    return None if x is None else round(float(x), 4)
+
+
+def intent_totals(per_run: list[dict]) -> dict:
+    """Suite totals of the intent, danger and closed-loop sections: counts summed,
+    rates and medians recomputed (confusion matrices added, lead times pooled)."""
+    runs = [m for m in per_run if m.get("intent")]
+    labels = [LABEL_NAMES[Label(k)] for k in SCORED_LABELS]
+    conf = np.zeros((len(labels), len(labels)), dtype=np.int64)
+    for m in runs:
+        conf += np.asarray(m["intent"]["confusion"]["matrix"], dtype=np.int64)
+    total = int(conf.sum())
+    per_class, f1s = {}, []
+    for i, name in enumerate(labels):
+        tp, fp, fn = conf[i, i], conf[:, i].sum() - conf[i, i], conf[i, :].sum() - conf[i, i]
+        p = tp / (tp + fp) if tp + fp else None
+        r = tp / (tp + fn) if tp + fn else None
+        f1 = 2 * p * r / (p + r) if p and r else (0.0 if (tp + fp + fn) else None)
+        per_class[name] = {"precision": _r(p), "recall": _r(r), "f1": _r(f1), "support": int(conf[i, :].sum())}
+        if tp + fp + fn:
+            f1s.append(f1 or 0.0)
+    events = [e for m in runs for e in m["danger"]["event_list"]]
+    leads = [e["lead_time_s"] for e in events if e["lead_time_s"] is not None]
+    n_ev = len(events)
+    missed = sum(m["danger"]["missed"] for m in runs)
+    alerts = sum(m["danger"]["alerts"] for m in runs)
+    fa = sum(m["danger"]["false_alarms"] for m in runs)
+    hits = [m["closed_loop"] for m in runs]
+    return {
+        "intent": {
+            "accuracy": _r(np.trace(conf) / total) if total else None,
+            "macro_f1": _r(float(np.mean(f1s))) if f1s else None,
+            "per_class": per_class,
+            "confusion": {"labels": labels, "matrix": conf.tolist()},
+            "n": total,
+        },
+        "danger": {
+            "events": n_ev, "missed": missed, "alerts": alerts, "false_alarms": fa,
+            "miss_rate": _r(missed / n_ev) if n_ev else None,
+            "false_alarm_rate": _r(fa / alerts) if alerts else None,
+            "lead_time_s_median": _r(float(np.median(leads))) if leads else None,
+            "lead_time_s_min": _r(float(np.min(leads))) if leads else None,
+        },
+        "closed_loop": {
+            "runs": len(hits),
+            "collisions": sum(1 for h in hits if h["collision"]),
+            "impact_speed_max": _r(max([h["impact_speed"] or 0.0 for h in hits], default=0.0)),
+        },
+        "expectations": {
+            "total": sum(len(m.get("expectations", [])) for m in runs),
+            "failed": sum(1 for m in runs for e in m.get("expectations", []) if not e["passed"]),
+        },
+    }
