@@ -84,3 +84,21 @@ class Sink(Protocol):
     def on_tick(self, record: TickRecord) -> None: ...
 
     def on_end(self, summary: dict) -> None: ...
+
+
+class RecordCollector:
+    """A sink that keeps every ``TickRecord`` in memory (tests, notebooks, benchmarks)."""
+
+    def __init__(self) -> None:
+        self.records: list[TickRecord] = []
+        self.info: dict = {}
+        self.summary: dict = {}
+
+    def on_start(self, info: dict) -> None:
+        self.info = info
+
+    def on_tick(self, record: TickRecord) -> None:
+        self.records.append(record)
+
+    def on_end(self, summary: dict) -> None:
+        self.summary = summary

@@ -61,7 +61,7 @@ def _progress() -> Progress:
 
 def run_scenario(
     scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
-    video: Path | None = None, rerun_file: Path | None = None, lang: str = "en",
+    video: Path | None = None, rerun_file: Path | None = None, lang: str = "en", rerun_live: bool = False,
 ) -> dict:
     """Run one scenario into ``out``; returns the run summary."""
     from sim.runner import Runner
@@ -78,10 +78,10 @@ def run_scenario(
         from tools.video import VideoSink
 
         sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
-    if rerun_file is not None:
+    if rerun_file is not None or rerun_live:
         from tools.rerun_sink import RerunSink
 
-        sinks.append(RerunSink(rerun_file))
+        sinks.append(RerunSink(rerun_file, spawn=rerun_live))
     runner = Runner(scenario, sinks=sinks, render=render, renderer_backend=renderer)
     with _progress() as prog:
         task = prog.add_task(scenario.name, total=1.0)
@@ -101,6 +101,7 @@ def run(
     video: Annotated[Path | None, typer.Option("--video", help="annotated MP4 (e.g. RUN_DIR/annotated.mp4)")] = None,
     rerun_file: Annotated[Path | None, typer.Option("--rerun", help="rerun .rrd recording (e.g. RUN_DIR/run.rrd)")] = None,
     lang: Annotated[str, typer.Option("--lang", help="video labels: en | zh")] = "en",
+    rerun_live: Annotated[bool, typer.Option("--rerun-live", help="stream to a live rerun viewer (spawned)")] = False,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
@@ -108,7 +109,7 @@ def run(
     if lang not in ("en", "zh"):
         raise typer.BadParameter("--lang must be en or zh")
     summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
-                           rerun_file=rerun_file, lang=lang)
+                           rerun_file=rerun_file, lang=lang, rerun_live=rerun_live)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
@@ -344,6 +345,23 @@ def eval_mot(
     from tools.mot_cli import eval_mot_command
 
     raise typer.Exit(eval_mot_command(gt, tracks, format))
+
+
+@bench_app.command("sinks")
+@user_errors
+def bench_sinks(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    scenario: Annotated[Path, typer.Option(help="scenario to run")] = Path("scenarios/ped_crossing_nearside.yaml"),
+    repeats: Annotated[int, typer.Option(help="runs per configuration")] = 3,
+) -> None:
+    """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
+    from tools.bench import print_bench
+    from tools.bench_sinks import bench_sinks as run_bench
+
+    result = run_bench(scenario, repeats=repeats)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
 
 
 @bench_app.command("track")

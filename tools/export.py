@@ -349,16 +349,9 @@ def export_scenarios(
 
 def load_sources(source: Path) -> list[Scenario]:
     """The scenarios of a scenario YAML or of a suite YAML (a mapping with ``scenarios``)."""
-    from tools.suite import load_suite
+    from tools.suite import is_suite, load_suite, read_yaml
 
-    source = Path(source)
-    if not source.is_file():
-        raise ScenarioError(f"{source}: no such scenario or suite file")
-    try:
-        data = yaml.safe_load(source.read_text(encoding="utf-8"))
-    except yaml.YAMLError as e:
-        raise ScenarioError(f"{source}: malformed YAML: {getattr(e, 'problem', e)}") from None
-    if isinstance(data, dict) and "scenarios" in data:
+    if is_suite(read_yaml(source, "scenario or suite")):
         _, paths = load_suite(source)
         return [load_scenario(p) for p in paths]
     return [load_scenario(source)]

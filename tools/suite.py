@@ -10,15 +10,25 @@ import yaml
 from sim.scenario import ScenarioError
 
 
+def read_yaml(path: str | Path, what: str = "suite") -> object:
+    """Parsed YAML of ``path``; one-line ``ScenarioError`` for a missing or malformed file."""
+    p = Path(path)
+    if not p.is_file():
+        raise ScenarioError(f"{p}: no such {what} file")
+    try:
+        return yaml.safe_load(p.read_text(encoding="utf-8"))
+    except yaml.YAMLError as e:
+        raise ScenarioError(f"{p}: malformed YAML: {getattr(e, 'problem', e)}") from None
+
+
+def is_suite(data: object) -> bool:
+    return isinstance(data, dict) and "scenarios" in data
+
+
 def load_suite(path: str | Path) -> tuple[str, list[Path]]:
     """(name, scenario paths) of a suite YAML; one-line ``ScenarioError`` when it is wrong."""
     p = Path(path)
-    if not p.is_file():
-        raise ScenarioError(f"{p}: no such suite file")
-    try:
-        data = yaml.safe_load(p.read_text(encoding="utf-8"))
-    except yaml.YAMLError as e:
-        raise ScenarioError(f"{p}: malformed YAML: {getattr(e, 'problem', e)}") from None
+    data = read_yaml(p)
     if not isinstance(data, dict) or not isinstance(data.get("scenarios"), list) or not data["scenarios"]:
         raise ScenarioError(f"{p}: scenarios: expected a non-empty list of scenario paths")
     paths = [(p.parent / str(s)).resolve() for s in data["scenarios"]]

@@ -81,3 +81,12 @@ def test_console_script_reports_bad_yaml_on_one_line(tmp_path):
     assert p.returncode == 2
     assert "Traceback" not in p.stderr and p.stderr.strip().count("\n") == 0
     assert "bad.yaml:" in p.stderr
+
+
+def test_a_file_that_is_not_a_database_is_refused_untouched(tmp_path):
+    db = tmp_path / "notes.db"
+    db.write_bytes(b"these are my notes, not a database\n")
+    res = runner.invoke(app, ["run", str(PED), "--out", str(tmp_path / "r"), "--no-render", "--db", str(db)])
+    assert res.exit_code == 2 and "not a SQLite database" in res.output
+    assert len(res.output.strip().splitlines()) == 1
+    assert db.read_bytes() == b"these are my notes, not a database\n"

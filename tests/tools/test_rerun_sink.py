@@ -13,6 +13,7 @@ from rerun.chunk import RrdReader  # noqa: E402
 
 from intent.alerts import Alert  # noqa: E402
 from intent.labels import Risk  # noqa: E402
+from sim.records import RecordCollector  # noqa: E402
 from sim.runner import Runner  # noqa: E402
 from sim.scenario import load_scenario  # noqa: E402
 from tools.rerun_sink import RerunSink  # noqa: E402
@@ -20,16 +21,7 @@ from tools.rerun_sink import RerunSink  # noqa: E402
 ROOT = Path(__file__).resolve().parents[2]
 
 
-class Collect:
-    def __init__(self) -> None:
-        self.records = []
-
-    def on_start(self, info: dict) -> None: ...
-
-    def on_tick(self, record) -> None:
-        self.records.append(record)
-
-    def on_end(self, summary: dict) -> None: ...
+Collect = RecordCollector
 
 
 def load(path: Path) -> tuple[Counter, set[str], dict[str, list]]:

@@ -12,6 +12,7 @@ import pytest
 
 from intent.alerts import Alert
 from intent.labels import Risk
+from sim.records import RecordCollector
 from sim.runner import Runner
 from sim.scenario import load_scenario
 from tools import video
@@ -21,16 +22,7 @@ from tools.video import VideoSink, find_cjk_font
 ROOT = Path(__file__).resolve().parents[2]
 
 
-class Collect:
-    def __init__(self) -> None:
-        self.records = []
-
-    def on_start(self, info: dict) -> None: ...
-
-    def on_tick(self, record) -> None:
-        self.records.append(record)
-
-    def on_end(self, summary: dict) -> None: ...
+Collect = RecordCollector
 
 
 def short_scenario(duration: float = 2.0):
