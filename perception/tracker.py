@@ -48,8 +48,7 @@ track's moving-average feature, and a *lost* track may also match a detection
 outside the IoU gate when the cosine distance is below ``reid_max_distance``;
 its Kalman filter then restarts at that detection.
 
-Kalman state (8, per track, filterpy ``KalmanFilter``):
-``[cx, cy, w, h, vcx, vcy, vw, vh]`` -- box centre and size in px, their rates
+Kalman state (8 per track): ``[cx, cy, w, h, vcx, vcy, vw, vh]`` -- box centre and size in px, their rates
 in px/frame, constant-velocity model. Unlike SORT's ``[cx, cy, s, r, ...]``
 state, width and height are filtered independently and the noise scales with
 the box size (as in ByteTrack/BoT-SORT), so near and far objects get the same
@@ -65,6 +64,15 @@ which ByteTrack's 30 fps per-frame value cannot follow at 10 fps, while at
 25-30 fps the same value is close to ByteTrack's. The size rates stay quiet:
 a walking pedestrian's box width swings with its legs, and letting that into
 the predicted width loses the track.
+
+Implementation: the filter is filterpy's ``KalmanFilter`` model (explicit
+``KF_F``, ``KF_H``, diagonal Q and R from ``kf_process_noise`` and
+``kf_measurement_noise``; ``predict`` and the Joseph-form ``update``) run on
+all tracks at once: states (N, 8) and covariances (N, 8, 8) stacked, one
+batched matmul chain per step and one batched 4x4 solve for the gain
+(``tests/perception/test_tracker_batch.py`` checks it against filterpy per
+track to 1e-9). Tracks live in preallocated arrays (rows in birth order, the
+order association sees them in), so a frame builds no per-track Python objects.
 """
 
 from __future__ import annotations
@@ -74,11 +82,9 @@ from dataclasses import dataclass, field
 from enum import IntEnum
 
 import numpy as np
-from filterpy.kalman import KalmanFilter
 from scipy.optimize import linear_sum_assignment
 
 from perception.detections import Detections
-from perception.geometry import iou_matrix
 
 log = logging.getLogger(__name__)
 
@@ -231,6 +237,13 @@ class Tracks:
         "velocity_px",
     )
 
+    @classmethod
+    def _trusted(cls, **arrays: np.ndarray) -> Tracks:
+        """Tracks from arrays already of the right dtype and shape (skips the checks)."""
+        out = object.__new__(cls)
+        out.__dict__ = arrays
+        return out
+
     def __len__(self) -> int:
         return len(self.track_id)
 
@@ -267,73 +280,153 @@ def cxcywh_to_xyxy(b: np.ndarray) -> np.ndarray:
     return np.concatenate([b[..., :2] - half, b[..., :2] + half], axis=-1)
 
 
-class _BoxKalman:
-    """Constant-velocity Kalman filter on ``[cx, cy, w, h, vcx, vcy, vw, vh]`` (px, px/frame)."""
+# ------------------------------------------------------------ Kalman filter
+# The box filter is filterpy's ``KalmanFilter`` with the matrices below, written
+# out so that all tracks are filtered at once: state rows x (N, 8) (filterpy's
+# column x, transposed), covariances P (N, 8, 8). Same F, H, Q, R and the same
+# equations (filterpy ``predict`` and its Joseph-form ``update``); the 4x4
+# innovation covariance is inverted by one batched solve.
+# ``tests/perception/test_tracker_batch.py`` checks it against filterpy.
 
-    _F = np.block([[np.eye(4), np.eye(4)], [np.zeros((4, 4)), np.eye(4)]])
-    _H = np.hstack([np.eye(4), np.zeros((4, 4))])
-
-    def __init__(self, cxcywh: np.ndarray, wp: float, wv: float, v0: float, wc: float | None = None) -> None:
-        self.wp, self.wv = wp, wv
-        self.wc = wv if wc is None else wc  # centre-rate noise
-        self.kf = KalmanFilter(dim_x=8, dim_z=4)
-        self.kf.F = self._F.copy()
-        self.kf.H = self._H.copy()
-        self.kf.x = np.concatenate([cxcywh, np.zeros(4)]).reshape(8, 1)
-        w, h = cxcywh[2], cxcywh[3]
-        size = np.array([w, h, w, h])
-        std = np.concatenate([2.0 * wp * size, v0 * size])
-        self.kf.P = np.diag(std**2)
-
-    @property
-    def box(self) -> np.ndarray:
-        """Current ``[cx, cy, w, h]`` (px)."""
-        return self.kf.x[:4, 0]
-
-    @property
-    def rate(self) -> np.ndarray:
-        """Current ``[vcx, vcy, vw, vh]`` (px/frame)."""
-        return self.kf.x[4:, 0]
-
-    def _size(self) -> np.ndarray:
-        w, h = np.maximum(self.kf.x[2:4, 0], 1.0)
-        return np.array([w, h, w, h])
-
-    def predict(self) -> None:
-        x = self.kf.x
-        for i in (2, 3):  # never predict a size through zero
-            if x[i, 0] + x[i + 4, 0] <= _MIN_SIZE_PX:
-                x[i + 4, 0] = 0.0
-        size = self._size()
-        wv = np.array([self.wc, self.wc, self.wv, self.wv])
-        self.kf.Q = np.diag(np.concatenate([self.wp * size, wv * size]) ** 2)
-        self.kf.predict()
-        self._floor_size()
-
-    def update(self, cxcywh: np.ndarray) -> None:
-        self.kf.R = np.diag((self.wp * self._size()) ** 2)
-        self.kf.update(cxcywh.reshape(4, 1))
-        self._floor_size()
-
-    def _floor_size(self) -> None:
-        self.kf.x[2:4, 0] = np.maximum(self.kf.x[2:4, 0], _MIN_SIZE_PX)
-
-    def finite(self) -> bool:
-        return bool(np.all(np.isfinite(self.kf.x)) and np.all(np.isfinite(self.kf.P)))
+#: State transition, one frame of constant velocity: ``x' = F x``.
+KF_F = np.block([[np.eye(4), np.eye(4)], [np.zeros((4, 4)), np.eye(4)]])
+#: Measurement matrix, a detection measures the box ``[cx, cy, w, h]``: ``z = H x``.
+KF_H = np.hstack([np.eye(4), np.zeros((4, 4))])
+_F_T = np.ascontiguousarray(KF_F.T)
+_H_T = np.ascontiguousarray(KF_H.T)
+_I8 = np.eye(8)
+_WH8 = np.array([2, 3] * 4)  # state columns giving [w, h, w, h, w, h, w, h]
+_WH4 = np.array([2, 3] * 2)
 
 
-@dataclass(eq=False)
-class _Track:
-    kf: _BoxKalman
-    class_id: int
-    score: float
-    feature: np.ndarray | None
-    track_id: int = -1
-    state: TrackState = TrackState.TENTATIVE
-    hits: int = 1
-    age: int = 0
-    time_since_update: int = 0
-    det_index: int = -1
+def kf_process_noise(x: np.ndarray, q_weights: np.ndarray) -> np.ndarray:
+    """Diagonal of Q (N, 8) for state rows x (N, 8).
+
+    ``Q = diag((q_weights * [w, h, w, h, w, h, w, h])**2)`` with the sizes
+    floored at 1 px, ``q_weights`` = ``[wp, wp, wp, wp, wc, wc, wv, wv]``:
+    position, centre-rate and size-rate noise std as fractions of the box size.
+    """
+    return (np.maximum(x.take(_WH8, axis=1), 1.0) * q_weights) ** 2
+
+
+def kf_measurement_noise(x: np.ndarray, wp: float) -> np.ndarray:
+    """Diagonal of R (N, 4) for state rows x (N, 8): ``R = diag((wp * [w, h, w, h])**2)``, sizes floored at 1 px."""
+    return (wp * np.maximum(x.take(_WH4, axis=1), 1.0)) ** 2
+
+
+def kf_initial_state(cxcywh: np.ndarray, p_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """New filters at boxes (N, 4): x (N, 8) with zero rates, P (N, 8, 8).
+
+    ``P = diag((p_weights * [w, h, w, h, w, h, w, h])**2)`` with the measured
+    (unfloored) sizes, ``p_weights`` = ``[2 wp] * 4 + [v0] * 4``.
+    """
+    n = len(cxcywh)
+    x = np.zeros((n, 8))
+    x[:, :4] = cxcywh
+    P = np.zeros((n, 8, 8))
+    P.reshape(n, 64)[:, ::9] = (x.take(_WH8, axis=1) * p_weights) ** 2
+    return x, P
+
+
+def kf_predict(x: np.ndarray, P: np.ndarray, q: np.ndarray) -> None:
+    """filterpy ``predict`` of N filters, in place: ``x = F x``, ``P = F P F' + diag(q)``."""
+    np.matmul(x, _F_T, out=x)  # numpy buffers overlapping operands
+    np.matmul(KF_F @ P, _F_T, out=P)
+    P.reshape(len(P), 64)[:, ::9] += q
+
+
+def kf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """filterpy ``update`` of N filters with measurements z (N, 4) and ``R = diag(r)`` (r (N, 4)).
+
+    ``y = z - H x``, ``S = H P H' + R``, ``K = P H' S^-1``, ``x += K y``,
+    ``P = (I - K H) P (I - K H)' + K R K'`` (Joseph form). Returns the
+    posterior x (N, 8) and P (N, 8, 8) as new arrays.
+    """
+    n = len(x)
+    y = z - x @ _H_T
+    PHT = P @ _H_T
+    S = KF_H @ PHT
+    S.reshape(n, 16)[:, ::5] += r
+    # K = P H' S^-1  <=>  K' = S'^-1 (P H')': one batched 4x4 solve, no explicit inverse.
+    K = np.linalg.solve(S.transpose(0, 2, 1), PHT.transpose(0, 2, 1)).transpose(0, 2, 1)
+    x = x + (K @ y[:, :, None])[:, :, 0]
+    I_KH = _I8 - K @ KF_H
+    P = I_KH @ P @ I_KH.transpose(0, 2, 1) + (K * r[:, None, :]) @ K.transpose(0, 2, 1)
+    return x, P
+
+
+def box_predict(x: np.ndarray, P: np.ndarray, q_weights: np.ndarray) -> None:
+    """Predict N box filters one frame ahead, in place: ``kf_predict`` with the size guards.
+
+    A size rate that would take its size to ``_MIN_SIZE_PX`` or below is
+    zeroed first; Q comes from the sizes before the step; the predicted sizes
+    are floored at ``_MIN_SIZE_PX``.
+    """
+    rates = x[:, 6:8]
+    rates[x[:, 2:4] + rates <= _MIN_SIZE_PX] = 0.0  # never predict a size through zero
+    kf_predict(x, P, kf_process_noise(x, q_weights))
+    np.maximum(x[:, 2:4], _MIN_SIZE_PX, out=x[:, 2:4])
+
+
+def box_update(x: np.ndarray, P: np.ndarray, cxcywh: np.ndarray, wp: float) -> tuple[np.ndarray, np.ndarray]:
+    """Update N box filters with measured boxes (N, 4): ``kf_update``, R from the predicted sizes, sizes floored."""
+    x, P = kf_update(x, P, cxcywh, kf_measurement_noise(x, wp))
+    np.maximum(x[:, 2:4], _MIN_SIZE_PX, out=x[:, 2:4])
+    return x, P
+
+
+def _cxcywh(b: np.ndarray) -> np.ndarray:
+    """``xyxy_to_cxcywh`` (same arithmetic) of an (N, 4) float64 array."""
+    out = np.empty((len(b), 4))
+    wh = np.subtract(b[:, 2:], b[:, :2], out=out[:, 2:])
+    np.add(b[:, :2], wh / 2.0, out=out[:, :2])
+    return out
+
+
+#: State rows (N, 8) @ this = their boxes as xyxy (N, 4): ``[cx - w/2, cy - h/2, cx + w/2, cy + h/2]``.
+#: Bit-identical to ``cxcywh_to_xyxy`` (each output adds one exactly scaled term to another).
+_STATE_TO_XYXY = np.zeros((8, 4))
+_STATE_TO_XYXY[:4] = [[1.0, 0.0, 1.0, 0.0], [0.0, 1.0, 0.0, 1.0], [-0.5, 0.0, 0.5, 0.0], [0.0, -0.5, 0.0, 0.5]]
+#: xyxy boxes (N, 4) @ this = their widths and heights ``[x2 - x1, y2 - y1]`` (N, 2), bit-identical.
+_XYXY_TO_WH = np.array([[-1.0, 0.0], [0.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+_TINY = np.nextafter(0.0, 1.0)  # smallest positive float: x / max(union, _TINY) is 0 where union is 0
+
+
+def _iou(a: np.ndarray, b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
+    """``perception.geometry.iou_matrix`` (same arithmetic and result) of boxes of non-negative size.
+
+    a (N, 4) and b (M, 4) are xyxy boxes, ``area_b`` (M,) the areas of b. Widths
+    and heights are >= 0 (true for track boxes and valid detections), so areas
+    need no clamping, and the union is then 0 only where the intersection is,
+    where the IoU is 0.
+    """
+    a3 = a[:, None, :]
+    wh = np.minimum(a3[..., 2:], b[:, 2:])
+    wh -= np.maximum(a3[..., :2], b[:, :2])
+    np.maximum(wh, 0.0, out=wh)
+    inter = wh[..., 0] * wh[..., 1]
+    wh_a = a @ _XYXY_TO_WH
+    union = (wh_a[:, 0] * wh_a[:, 1])[:, None] + area_b - inter
+    return inter / np.maximum(union, _TINY)
+
+
+# ---------------------------------------------------------------- track table
+# Live tracks are rows [0, n) of preallocated arrays, in birth order (the order
+# association sees them in, as a list would); the integer fields are the
+# columns of one (capacity, 8) array so that removing tracks is one copy per array.
+# ``_LIMIT``: misses in a row after which the track is removed (by state).
+_AGE, _TSU, _HITS, _STATE, _ID, _CLASS, _DET, _LIMIT = range(8)
+_NUM_INT = 8
+_TENTATIVE, _CONFIRMED, _LOST = int(TrackState.TENTATIVE), int(TrackState.CONFIRMED), int(TrackState.LOST)
+_NO_ROWS = np.zeros(0, dtype=np.intp)
+
+
+def _empty_tracks() -> Tracks:
+    i = np.zeros(0, dtype=np.int64)
+    return Tracks._trusted(
+        track_id=i, xyxy=np.zeros((0, 4)), class_id=i.copy(), score=np.zeros(0), age=i.copy(), hits=i.copy(),
+        state=i.copy(), det_index=i.copy(), velocity_px=np.zeros((0, 4)),
+    )
 
 
 class Tracker:
@@ -348,27 +441,82 @@ class Tracker:
     def __init__(self, config: TrackerConfig | None = None, frame_rate: float = 10.0) -> None:
         if not (np.isfinite(frame_rate) and frame_rate > 0):
             raise ValueError(f"frame_rate must be a positive number, got {frame_rate!r}")
-        self.config = config or TrackerConfig()
+        self.config = cfg = config or TrackerConfig()
         self.frame_rate = float(frame_rate)
-        self.max_lost_frames = max(1, round(self.config.max_lost_s * self.frame_rate))
-        out_s = self.config.output_lost_s
+        self.max_lost_frames = max(1, round(cfg.max_lost_s * self.frame_rate))
+        out_s = cfg.output_lost_s
         self.output_lost_frames = (
             self.max_lost_frames if out_s is None else max(1, round(out_s * self.frame_rate))
-        ) if self.config.output_lost else 0
+        ) if cfg.output_lost else 0
+        wp, wv = cfg.std_weight_position, cfg.std_weight_velocity
+        wc = wv if cfg.std_weight_accel is None else cfg.std_weight_accel / self.frame_rate**2
+        self._q_weights = np.array([wp] * 4 + [wc, wc, wv, wv])
+        self._p_weights = np.array([2.0 * wp] * 4 + [cfg.init_velocity_std] * 4)
+        self._newborn = np.zeros(_NUM_INT, dtype=np.int64)
+        self._newborn[[_HITS, _STATE, _ID, _LIMIT]] = 1, _TENTATIVE, -1, cfg.tentative_max_lost_frames
         self.reset()
 
     def reset(self) -> None:
         """Forget all tracks, restart ids at 1 and zero the counters."""
-        self._tracks: list[_Track] = []
+        self._n = 0
+        self._feat: np.ndarray | None = None
+        self._alloc(16)
         self._next_id = 1
         self.frame_count = 0
         self.dropped_detections = 0
 
+    @property
+    def num_tracks(self) -> int:
+        """Number of live tracks (tentative, confirmed and lost)."""
+        return self._n
+
+    # ------------------------------------------------------------ track table
+    def _alloc(self, capacity: int) -> None:
+        """(Re)allocate the track arrays with ``capacity`` rows, keeping rows [0, n)."""
+        n = self._n
+        x, P = np.zeros((capacity, 8)), np.zeros((capacity, 8, 8))
+        score, ints = np.zeros(capacity), np.zeros((capacity, _NUM_INT), dtype=np.int64)
+        if n:
+            x[:n], P[:n], score[:n], ints[:n] = self._x[:n], self._P[:n], self._score[:n], self._ints[:n]
+        feat = None
+        if self._feat is not None:
+            feat = np.full((capacity, self._feat.shape[1]), np.nan)
+            feat[:n] = self._feat[:n]
+        self._x, self._P, self._score, self._ints, self._feat = x, P, score, ints, feat
+        self._track_id = ints[:, _ID]
+
+    def _keep(self, keep: np.ndarray) -> None:
+        """Remove the live rows where ``keep`` (n,) is False, preserving the order of the others."""
+        n, m = self._n, int(np.count_nonzero(keep))
+        for a in (self._x, self._P, self._score, self._ints) + (() if self._feat is None else (self._feat,)):
+            a[:m] = a[:n][keep]
+        self._n = m
+
+    def _features_of_dim(self, dim: int) -> np.ndarray:
+        """The (capacity, dim) track features (NaN rows: no feature yet), reset if ``dim`` changed."""
+        if self._feat is None or self._feat.shape[1] != dim:
+            if self._feat is not None:
+                log.warning("feature dimension changed from %d to %d: track features reset", self._feat.shape[1], dim)
+            self._feat = np.full((len(self._x), dim), np.nan)
+        return self._feat
+
     # ------------------------------------------------------------------ input
-    def _valid_mask(self, dets: Detections) -> np.ndarray:
-        b = dets.xyxy
+    def _valid_mask(self, b: np.ndarray, s: np.ndarray) -> np.ndarray | None:
+        """Valid rows (finite coordinates and score, positive size, |coordinates| <= max_abs_coord); None if all are."""
+        limit = self.config.max_abs_coord
+        # Fast path; abs().max() is NaN, so not <= limit, when a coordinate is NaN.
+        # Fast path (count_nonzero is much cheaper than all() on small arrays); NaN fails <= limit.
+        m = len(s)
+        if (
+            limit < np.inf
+            and np.count_nonzero(np.abs(b) <= limit) == 4 * m
+            and np.count_nonzero(b[:, 2:] > b[:, :2]) == 2 * m
+            and np.count_nonzero(np.isfinite(s)) == m
+        ):
+            return None
         with np.errstate(invalid="ignore", over="ignore"):
-            ok = dets.finite() & np.all(np.abs(b) <= self.config.max_abs_coord, axis=1)
+            ok = np.all(np.isfinite(b), axis=1) & np.isfinite(s)
+            ok &= (b[:, 2] > b[:, 0]) & (b[:, 3] > b[:, 1]) & np.all(np.abs(b) <= limit, axis=1)
         return ok
 
     def _clean_features(self, features: np.ndarray | None, n: int) -> np.ndarray | None:
@@ -387,44 +535,26 @@ class Tracker:
         return f
 
     # ------------------------------------------------------------ association
-    def _cost(
-        self,
-        tracks: list[_Track],
-        boxes: np.ndarray,
-        classes: np.ndarray,
-        feats: np.ndarray | None,
-        iou_gate: float,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """(T, D) association cost (+inf where a pair is not allowed) and IoU."""
-        trk_boxes = cxcywh_to_xyxy(np.array([t.kf.box for t in tracks]).reshape(-1, 4))
-        iou = iou_matrix(trk_boxes, boxes)
-        cost = 1.0 - iou
-        ok = iou >= iou_gate
-        if feats is not None:
-            w = self.config.reid_weight
-            dim = feats.shape[1]
-            trk_feats = np.array(
-                [t.feature if t.feature is not None else np.full(dim, np.nan) for t in tracks]
-            ).reshape(-1, dim)
-            cos = 1.0 - trk_feats @ feats.T  # NaN where either feature is missing
-            has = np.isfinite(cos)
-            cost = np.where(has, (1.0 - w) * cost + w * cos, cost)
-            lost = np.array([t.state == TrackState.LOST for t in tracks], dtype=bool)
-            ok |= lost[:, None] & has & (cos <= self.config.reid_max_distance)
-        if self.config.per_class:
-            trk_cls = np.array([t.class_id for t in tracks], dtype=np.int64)
-            ok &= trk_cls[:, None] == classes[None, :]
-        return np.where(ok, cost, np.inf), iou
-
     @staticmethod
-    def _assign(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Optimal (rows, cols) of the finite entries of ``cost``."""
-        if cost.size == 0:
-            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        finite = np.isfinite(cost)
-        rows, cols = linear_sum_assignment(np.where(finite, cost, _BIG_COST))
-        keep = finite[rows, cols]
+    def _assign(cost: np.ndarray, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Optimal (rows, cols) among the allowed (``ok``) entries of ``cost``."""
+        if not np.count_nonzero(ok):
+            return _NO_ROWS, _NO_ROWS
+        rows, cols = linear_sum_assignment(np.where(ok, cost, _BIG_COST))
+        keep = ok[rows, cols]
         return rows[keep], cols[keep]
+
+    def _appearance(
+        self, cost: np.ndarray, ok: np.ndarray, feats: np.ndarray, lost: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Stage-1 cost and gate with appearance: cosine distance mixed in, lost tracks re-identified."""
+        w = self.config.reid_weight
+        trk_feats = self._features_of_dim(feats.shape[1])[: self._n]
+        cos = 1.0 - trk_feats @ feats.T  # NaN where either feature is missing
+        has = np.isfinite(cos)
+        cost = np.where(has, (1.0 - w) * cost + w * cos, cost)
+        ok |= lost[:, None] & has & (cos <= self.config.reid_max_distance)
+        return cost, ok
 
     # ---------------------------------------------------------------- update
     def update(self, detections: Detections, features: np.ndarray | None = None) -> Tracks:
@@ -437,163 +567,218 @@ class Tracker:
         """
         cfg = self.config
         self.frame_count += 1
-        valid = self._valid_mask(detections)
-        self.dropped_detections += int(np.count_nonzero(~valid))
-        orig_index = np.flatnonzero(valid)
-        boxes = detections.xyxy[valid]
-        scores = detections.score[valid]
-        classes = detections.class_id[valid]
-        feats = self._clean_features(features, len(detections)) if cfg.reid_weight > 0 else None
-        if feats is not None:
-            feats = feats[valid]
+        boxes, scores, classes = detections.xyxy, detections.score, detections.class_id
+        feats = self._clean_features(features, len(boxes)) if cfg.reid_weight > 0 else None
+        orig_index = None  # row in ``detections`` of each valid row (None: the same rows)
+        if len(boxes):
+            valid = self._valid_mask(boxes, scores)
+            if valid is not None:
+                self.dropped_detections += len(valid) - int(np.count_nonzero(valid))
+                orig_index = np.flatnonzero(valid)
+                boxes, scores, classes = boxes[valid], scores[valid], classes[valid]
+                if feats is not None:
+                    feats = feats[valid]
 
-        for t in self._tracks:
-            t.kf.predict()
-            t.age += 1
-            t.time_since_update += 1
-            t.det_index = -1
-        self._tracks = [t for t in self._tracks if t.kf.finite()]
+        n = self._predict()
+        m = len(boxes)
+        if m == 0:
+            if n:
+                self._misses(n)
+            return self._output()
+        meas = _cxcywh(boxes)  # [cx, cy, w, h]
+        is_high = scores >= cfg.high_score
+        high = is_high.nonzero()[0]
+        all_high = len(high) == m
+        low = _NO_ROWS if all_high else ((scores >= cfg.low_score) & ~is_high).nonzero()[0]
+        trk = det = _NO_ROWS  # matched pairs (track row, detection), in match order
+        jumped = None
+        unmatched_high = high
+        if n:
+            ints = self._ints[:n]
+            iou = _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
+            trk_class = ints[:, _CLASS]
 
-        high = np.flatnonzero(scores >= cfg.high_score)
-        low = np.flatnonzero((scores >= cfg.low_score) & (scores < cfg.high_score))
+            # Stage 1: high-score detections against every track.
+            if len(high):
+                iou1 = iou if all_high else iou.take(high, axis=1)
+                ok = iou1 >= cfg.match_iou
+                cost = 1.0 - iou1
+                if feats is not None:
+                    cost, ok = self._appearance(cost, ok, feats.take(high, axis=0), ints[:, _STATE] == _LOST)
+                if cfg.per_class:
+                    ok &= trk_class[:, None] == (classes if all_high else classes.take(high))
+                trk, cols = self._assign(cost, ok)
+                det = cols if all_high else high.take(cols)
+                if feats is not None:
+                    # A match below the IoU gate is an appearance re-identification:
+                    # the motion model was wrong, so the filter restarts at the detection.
+                    jumped = iou1[trk, cols] < cfg.match_iou
+                if len(cols) == len(high):
+                    unmatched_high = _NO_ROWS
+                elif len(cols):
+                    free = np.ones(len(high), dtype=bool)
+                    free[cols] = False
+                    unmatched_high = high[free]
 
-        # Stage 1: high-score detections against every track.
-        tracks = self._tracks
-        cost, iou = self._cost(
-            tracks,
-            boxes[high],
-            classes[high],
-            None if feats is None else feats[high],
-            cfg.match_iou,
-        )
-        rows, cols = self._assign(cost)
-        matched_trk = set(rows.tolist())
-        # A match below the IoU gate is an appearance re-identification: the
-        # motion model was wrong, so the filter restarts at the detection.
-        jumped = iou[rows, cols] < cfg.match_iou
-        pairs = [(tracks[r], high[c], j) for r, c, j in zip(rows, cols, jumped, strict=True)]
-        unmatched_high = np.setdiff1d(high, high[cols])
+            # Stage 2: low-score detections against the confirmed tracks left over.
+            if len(low):
+                rest = ints[:, _STATE] == _CONFIRMED
+                rest[trk] = False
+                rest = rest.nonzero()[0]
+                if len(rest):
+                    iou2 = iou.take(rest, axis=0).take(low, axis=1)
+                    ok = iou2 >= cfg.second_match_iou
+                    if cfg.per_class:
+                        ok &= trk_class.take(rest)[:, None] == classes.take(low)
+                    rows, cols = self._assign(1.0 - iou2, ok)
+                    if len(rows):
+                        trk, det = np.concatenate([trk, rest.take(rows)]), np.concatenate([det, low.take(cols)])
+                        if jumped is not None:
+                            jumped = np.concatenate([jumped, np.zeros(len(rows), dtype=bool)])
 
-        # Stage 2: low-score detections against confirmed tracks left over.
-        rest = [
-            t
-            for i, t in enumerate(tracks)
-            if i not in matched_trk and t.state == TrackState.CONFIRMED
-        ]
-        cost, _ = self._cost(rest, boxes[low], classes[low], None, cfg.second_match_iou)
-        rows, cols = self._assign(cost)
-        pairs += [(rest[r], low[c], False) for r, c in zip(rows, cols, strict=True)]
-
-        for trk, d, jump in pairs:
-            if jump:
-                trk.kf = self._new_filter(boxes[d])
-            else:
-                trk.kf.update(xyxy_to_cxcywh(boxes[d]))
-            self._apply_match(trk, scores[d], classes[d], orig_index[d], feats, d)
-
-        survivors = []
-        for t in self._tracks:
-            if t.time_since_update > 0:
-                if t.state == TrackState.TENTATIVE:
-                    if t.time_since_update > cfg.tentative_max_lost_frames:
-                        continue
-                elif t.time_since_update > self.max_lost_frames:
-                    continue
-                else:
-                    t.state = TrackState.LOST
-            survivors.append(t)
-        self._tracks = survivors
-
-        for d in unmatched_high[scores[unmatched_high] >= cfg.new_track_score]:
-            self._birth(boxes[d], scores[d], classes[d], orig_index[d], feats, d)
-
+        if len(trk):
+            self._apply_matches(trk, det, jumped, meas, scores, classes, orig_index, feats)
+        if n:
+            self._misses(n)
+        new = unmatched_high
+        if cfg.new_track_score > cfg.high_score:
+            new = new[scores.take(new) >= cfg.new_track_score]
+        if len(new):
+            self._birth(new, meas, scores, classes, orig_index, feats)
         return self._output()
 
-    def _apply_match(
+    def _predict(self) -> int:
+        """Predict every track one frame; drop filters that are no longer finite. Returns n."""
+        n = self._n
+        if n:
+            x, P = self._x[:n], self._P[:n]
+            box_predict(x, P, self._q_weights)
+            ints = self._ints[:n]
+            ints[:, _AGE : _TSU + 1] += 1
+            ints[:, _DET] = -1
+            if np.count_nonzero(np.isfinite(x)) < x.size or np.count_nonzero(np.isfinite(P)) < P.size:
+                self._keep(np.isfinite(x).all(axis=1) & np.isfinite(P.reshape(n, 64)).all(axis=1))
+                n = self._n
+        return n
+
+    def _apply_matches(
         self,
-        trk: _Track,
-        score: float,
-        class_id: int,
-        det_index: int,
+        trk: np.ndarray,
+        det: np.ndarray,
+        jumped: np.ndarray | None,
+        meas: np.ndarray,
+        scores: np.ndarray,
+        classes: np.ndarray,
+        orig_index: np.ndarray | None,
         feats: np.ndarray | None,
-        d: int,
     ) -> None:
-        trk.hits += 1
-        trk.time_since_update = 0
-        trk.score = float(score)
-        trk.class_id = int(class_id)
-        trk.det_index = int(det_index)
-        if feats is not None and np.all(np.isfinite(feats[d])):
-            if trk.feature is None:
-                trk.feature = feats[d].copy()
-            else:
-                m = self.config.feature_momentum
-                f = m * trk.feature + (1.0 - m) * feats[d]
-                trk.feature = f / max(float(np.linalg.norm(f)), 1e-12)
-        if trk.state == TrackState.LOST:
-            trk.state = TrackState.CONFIRMED
-        elif trk.state == TrackState.TENTATIVE and trk.hits >= self.config.min_hits:
-            self._confirm(trk)
+        """Update the matched tracks (rows ``trk``, each once) with their detections ``det``, in pair order."""
+        upd, det_upd = trk, det
+        if jumped is not None and np.count_nonzero(jumped):
+            self._x[trk[jumped]], self._P[trk[jumped]] = kf_initial_state(meas[det[jumped]], self._p_weights)
+            upd, det_upd = trk[~jumped], det[~jumped]
+        if len(upd):
+            self._x[upd], self._P[upd] = box_update(
+                self._x.take(upd, axis=0), self._P.take(upd, axis=0), meas.take(det_upd, axis=0),
+                self.config.std_weight_position,
+            )
+        self._score[trk] = scores.take(det)
+        ints = self._ints.take(trk, axis=0)
+        ints[:, _HITS] += 1
+        ints[:, _TSU] = 0
+        ints[:, _CLASS] = classes.take(det)
+        ints[:, _DET] = det if orig_index is None else orig_index.take(det)
+        state = ints[:, _STATE]
+        state[state == _LOST] = _CONFIRMED
+        confirm = ((state == _TENTATIVE) & (ints[:, _HITS] >= self.config.min_hits)).nonzero()[0]
+        if len(confirm):  # ids in match order
+            state[confirm] = _CONFIRMED
+            ints[confirm, _ID] = np.arange(self._next_id, self._next_id + len(confirm))
+            ints[confirm, _LIMIT] = self.max_lost_frames
+            self._next_id += len(confirm)
+        self._ints[trk] = ints
+        if feats is not None:
+            self._update_features(trk, feats[det])
 
-    def _new_filter(self, box: np.ndarray) -> _BoxKalman:
-        cfg = self.config
-        return _BoxKalman(
-            xyxy_to_cxcywh(box),
-            cfg.std_weight_position,
-            cfg.std_weight_velocity,
-            cfg.init_velocity_std,
-            None if cfg.std_weight_accel is None else cfg.std_weight_accel / self.frame_rate**2,
-        )
+    def _update_features(self, trk: np.ndarray, f: np.ndarray) -> None:
+        """Moving-average the features of tracks ``trk`` with their detections' features f (NaN rows skipped)."""
+        good = np.isfinite(f).all(axis=1)
+        if not np.count_nonzero(good):
+            return
+        trk, f = trk[good], f[good]
+        store = self._features_of_dim(f.shape[1])
+        old = store[trk]
+        m = self.config.feature_momentum
+        mixed = m * old + (1.0 - m) * f
+        mixed /= np.maximum(np.linalg.norm(mixed, axis=1, keepdims=True), 1e-12)
+        store[trk] = np.where(np.isnan(old[:, :1]), f, mixed)  # first feature: taken as is
 
-    def _confirm(self, trk: _Track) -> None:
-        trk.state = TrackState.CONFIRMED
-        trk.track_id = self._next_id
-        self._next_id += 1
+    def _misses(self, n: int) -> None:
+        """Tracks among the first n rows not matched this frame: remove the expired, the others turn lost."""
+        ints = self._ints[:n]
+        tsu = ints[:, _TSU]
+        missed = tsu > 0
+        if not np.count_nonzero(missed):
+            return
+        state = ints[:, _STATE]
+        state[missed & (state == _CONFIRMED)] = _LOST
+        drop = tsu > ints[:, _LIMIT]  # tentative_max_lost_frames or max_lost_frames
+        if np.count_nonzero(drop):
+            self._keep(~drop)
 
     def _birth(
         self,
-        box: np.ndarray,
-        score: float,
-        class_id: int,
-        det_index: int,
+        new: np.ndarray,
+        meas: np.ndarray,
+        scores: np.ndarray,
+        classes: np.ndarray,
+        orig_index: np.ndarray | None,
         feats: np.ndarray | None,
-        d: int,
     ) -> None:
-        cfg = self.config
-        feature = None
-        if feats is not None and np.all(np.isfinite(feats[d])):
-            feature = feats[d].copy()
-        trk = _Track(
-            kf=self._new_filter(box), class_id=int(class_id), score=float(score), feature=feature
-        )
-        trk.det_index = int(det_index)
-        if cfg.min_hits <= 1:
-            self._confirm(trk)
-        self._tracks.append(trk)
+        """Start tentative tracks at detections ``new``, appended in this order."""
+        n, k = self._n, len(new)
+        if n + k > len(self._x):
+            self._alloc(max(2 * len(self._x), n + k))
+        rows = slice(n, n + k)
+        self._x[rows], self._P[rows] = kf_initial_state(meas.take(new, axis=0), self._p_weights)
+        self._score[rows] = scores.take(new)
+        ints = self._ints[rows]
+        ints[:] = self._newborn  # age 0, one hit, tentative, no id
+        ints[:, _CLASS] = classes.take(new)
+        ints[:, _DET] = new if orig_index is None else orig_index.take(new)
+        if feats is not None:
+            f = feats[new]
+            self._features_of_dim(f.shape[1])[rows] = np.where(np.isfinite(f).all(axis=1, keepdims=True), f, np.nan)
+        elif self._feat is not None:
+            self._feat[rows] = np.nan
+        self._n = n + k
+        if self.config.min_hits <= 1:
+            self._ints[rows, _STATE] = _CONFIRMED
+            self._ints[rows, _ID] = np.arange(self._next_id, self._next_id + k)
+            self._ints[rows, _LIMIT] = self.max_lost_frames
+            self._next_id += k
 
     def _output(self) -> Tracks:
-        out = [
-            t
-            for t in self._tracks
-            if t.state == TrackState.CONFIRMED
-            or (t.state == TrackState.LOST and t.time_since_update <= self.output_lost_frames)
-        ]
-        out.sort(key=lambda t: t.track_id)
-        if not out:
-            return Tracks()
-        return Tracks(
-            track_id=[t.track_id for t in out],
-            xyxy=cxcywh_to_xyxy(np.array([t.kf.box for t in out])),
-            class_id=[t.class_id for t in out],
-            score=[t.score for t in out],
-            age=[t.age for t in out],
-            hits=[t.hits for t in out],
-            state=[int(t.state) for t in out],
-            det_index=[t.det_index for t in out],
-            velocity_px=np.array([t.kf.rate for t in out]) * self.frame_rate,
+        """Confirmed tracks and lost ones missed for at most ``output_lost_frames``, by id."""
+        n = self._n
+        ints = self._ints[:n]
+        # A confirmed track has been matched this frame (time since update 0), a
+        # lost one has not (>= 1), so one bound on the time since update does both.
+        rows = ((ints[:, _STATE] != _TENTATIVE) & (ints[:, _TSU] <= self.output_lost_frames)).nonzero()[0]
+        if not len(rows):
+            return _empty_tracks()
+        if len(rows) > 1:
+            rows = rows.take(self._track_id.take(rows).argsort(kind="stable"))
+        x = self._x.take(rows, axis=0)
+        cols = self._ints.take(rows, axis=0).T.copy()
+        return Tracks._trusted(
+            track_id=cols[_ID],
+            xyxy=x @ _STATE_TO_XYXY,
+            class_id=cols[_CLASS],
+            score=self._score.take(rows),
+            age=cols[_AGE],
+            hits=cols[_HITS],
+            state=cols[_STATE],
+            det_index=cols[_DET],
+            velocity_px=x[:, 4:] * self.frame_rate,
         )
-
-    @property
-    def num_tracks(self) -> int:
-        """Number of live tracks (tentative, confirmed and lost)."""
-        return len(self._tracks)
