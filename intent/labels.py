@@ -15,7 +15,8 @@ fills it from true kinematics, the estimator from its tracks; both call
   MEDIUM < 2 x high_ttc, LOW < 4 x high_ttc) and range (same ladder with the
   distance thresholds; above MEDIUM only while closing). HIGH and CRITICAL
   need the object in path, otherwise risk is capped at MEDIUM.
-* Labels: ``initializing`` (prediction younger than init_frames) > ``danger``
+* Labels: ``initializing`` (prediction younger than init_frames, or whose
+  velocity estimate has not settled yet: ``Kinematics.settled``) > ``danger``
   (risk >= HIGH, i.e. in path and TTC or closing range under the HIGH
   thresholds) > ``approaching`` (range rate < -deadband) > ``receding``
   (> +deadband) > ``stable``.
@@ -110,7 +111,11 @@ class Kinematics:
     ground_vx / ground_vy: the object's own velocity over the ground, in ego
     axes (m/s); accel: its acceleration along its motion (m/s^2, NaN unknown);
     yaw_rate: its yaw rate (rad/s, NaN unknown); class_id: detection class;
-    age: frames since the track was born (None for ground truth).
+    age: frames since the track was born (None for ground truth);
+    range_rate_sigma: std of the estimated range rate (m/s; None for ground
+    truth, which is exact); settled: 1 once the estimator's range rate has
+    converged, 0 before, NaN without an estimate -- predictions not settled
+    are ``initializing`` (None for ground truth).
     """
 
     class_id: np.ndarray
@@ -124,6 +129,8 @@ class Kinematics:
     accel: np.ndarray
     yaw_rate: np.ndarray
     age: np.ndarray | None = None
+    range_rate_sigma: np.ndarray | None = None
+    settled: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.range)
@@ -254,6 +261,8 @@ def assess(
     label = np.where(risk >= Risk.HIGH, Label.DANGER, label)
     if k.age is not None:
         label = np.where(np.asarray(k.age) < config.init_frames, Label.INITIALIZING, label)
+    if k.settled is not None:  # a prediction without a converged velocity (or any estimate) yet
+        label = np.where(np.asarray(k.settled, dtype=np.float64) == 1.0, label, Label.INITIALIZING)
     return Assessment(
         ttc=ttc,
         in_path=path,

@@ -58,6 +58,21 @@ def test_labels_from_range_rate_with_deadband():
 
 def test_young_tracks_are_initializing():
     assert assess(kin(age=1), CFG).label[0] == Label.INITIALIZING
+
+
+def test_tracks_whose_velocity_has_not_settled_are_initializing():
+    k = kin("car", r=40.0, y=3.5, rr=np.array([3.0, 3.0, 3.0, 3.0]), hw=0.9, age=20)
+    k = Kinematics(**{**k.__dict__, "class_id": np.full(4, CLASS_ID["car"]), "age": np.full(4, 20),
+                      **{f: np.repeat(getattr(k, f), 4) for f in ("range", "lateral", "half_width", "lateral_rate",
+                                                               "ground_vx", "ground_vy", "accel", "yaw_rate")},
+                      "range_rate_sigma": np.array([0.3, 3.0, np.nan, 0.3]),
+                      "settled": np.array([1.0, 0.0, np.nan, 1.0])})  # fmt: skip
+    labels = assess(k, CFG).label
+    # settled: its own label; not yet settled, or no estimate at all: initializing
+    assert labels.tolist() == [Label.RECEDING, Label.INITIALIZING, Label.INITIALIZING, Label.RECEDING]
+    # ground truth carries neither field: never initializing
+    assert kin("car").settled is None and kin("car").range_rate_sigma is None
+    assert assess(kin("car", rr=3.0, y=3.5, hw=0.9), CFG).label[0] == Label.RECEDING
     assert assess(kin(age=5), CFG).label[0] == Label.DANGER
 
 

@@ -170,15 +170,92 @@ def test_lateral_offset_of_an_object_to_the_side(r, y):
     assert m.half_width[0] == pytest.approx(0.3, abs=0.1)
 
 
-def test_lateral_extent_of_a_wide_object_is_conservative():
+def test_lateral_of_a_car_off_to_the_side_is_unbiased():
+    """The box's outer edge is the rear face's corner; its inner edge the front's, 4.5 m deeper."""
     est = Estimator(CAM)
-    m = est.measure(render(10.0, 0.5, SEDAN)[None], [CAR])  # straddles the optical axis: exact
+    m = est.measure(render(10.0, 0.5, SEDAN, cls=CAR)[None], [CAR])  # the rear face spans the axis
     assert m.lateral[0] == pytest.approx(0.5, abs=0.02)
     assert m.half_width[0] == pytest.approx(0.9, abs=0.02)
-    for r in (5.0, 10.0, 20.0):  # wholly to one side: outer edge exact, inner edge nearer the axis
-        m = est.measure(render(r, 3.0, SEDAN)[None], [CAR])
-        assert m.lateral[0] + m.half_width[0] == pytest.approx(3.9, abs=0.05)
-        assert 1.0 < m.lateral[0] - m.half_width[0] <= 2.1
+    for r in (5.0, 10.0, 20.0, 40.0):
+        for y in (3.0, -3.0, 1.6):  # wholly to one side (1.6: the inner edge 0.7 m off the axis)
+            m = est.measure(render(r, y, SEDAN, cls=CAR)[None], [CAR])
+            assert m.lateral[0] == pytest.approx(y, abs=0.05), (r, y)
+            assert m.half_width[0] == pytest.approx(0.9, abs=0.02), (r, y)
+    # The bottom-centre ray, taken at the face's depth, had put the inner edge of a car
+    # parked 3 m aside 0.2-0.5 m nearer the ego's path: an "in path" parked car.
+    m = est.measure(render(10.0, -3.0, SEDAN, cls=CAR)[None], [CAR])
+    assert abs(m.lateral[0]) - m.half_width[0] == pytest.approx(2.1, abs=0.05)
+    # Not for classes whose footprint is not known end-on (a pedestrian): the ray, as before.
+    m = est.measure(render(10.0, 3.0, ADULT)[None], [PED])
+    assert m.lateral[0] == pytest.approx(3.0, abs=0.1)
+
+
+def test_car_alongside_cut_at_the_image_edge():
+    """Overtaking on the left, front 3 m ahead: only its inner edge (the front's corner) is seen."""
+    est = Estimator(CAM)
+    box = render(-1.5, 3.5, SEDAN, cls=CAR)  # rear 1.5 m behind the bumper
+    m = est.measure(box[None], [CAR])
+    assert m.cut_bottom[0] or box[1] > 0
+    assert box[0] == 0.0  # cut at the left image edge
+    # At the true face depth the lateral is right; the far corner is L = 4.5 m deeper.
+    mt = est.measure(render(3.0, 3.5, (0.1, 1.8, 1.5))[None], [CAR])  # a thin plate at the front
+    assert np.isfinite(mt.lateral[0])
+    lat = m.lateral[0]
+    assert lat > 2.5, lat  # not pulled into the ego's corridor (|y| < 1.4 + 0.9)
+    # a noisy detector edge 6 px inside the border still counts as cut
+    noisy = box + np.array([6.0, 0.0, 0.0, 0.0])
+    m2 = est.measure(noisy[None], [CAR])
+    assert m2.lateral[0] == pytest.approx(lat, abs=0.3)
+
+
+def test_edges_within_their_noise_of_the_border_count_as_cut():
+    est = Estimator(CAM)
+    big = np.array([[5.0, 150.0, 205.0, 300.0]])  # 200 px wide: 5 % edge noise is 10 px
+    small = np.array([[5.0, 150.0, 25.0, 170.0]])  # 20 px wide: 1 px
+    cfg = est.config
+    assert 5.0 <= cfg.edge_margin_px + cfg.edge_cut_sigmas * cfg.edge_sigma_rel * 200.0
+    m = est.measure(np.concatenate([big, small]), [CAR, PED])
+    assert m.half_width[0] >= 0.9 - 1e-9  # cut: the visible edge plus the prior half-width
+    # the small box is not cut: its own width
+    assert m.half_width[1] == pytest.approx(0.5 * (m.x[1] - CAM.mount[0]) * 20.0 / CAM.fx, rel=0.2)
+
+
+@pytest.mark.parametrize("r", [10.0, 20.0, 40.0])
+def test_width_cue_of_a_car_ahead(r):
+    est = Estimator(CAM)
+    m = est.measure(render(r, 0.3, SEDAN, cls=CAR)[None], [CAR])
+    assert m.x_width[0] == pytest.approx(r, rel=0.01)  # the prior's width: exact
+    assert m.x[0] == pytest.approx(r, rel=0.01)
+    # not when a side face is in the box (wholly to one side), nor for a pedestrian
+    m = est.measure(np.stack([render(r, 3.0, SEDAN, cls=CAR), render(r, 0.0, ADULT)]), [CAR, PED])
+    assert np.all(np.isnan(m.x_width))
+    # nor when the car is seen obliquely
+    m = est.measure(render(r, 0.3, SEDAN, cls=CAR)[None], [CAR], cos_heading=np.array([0.9]))
+    assert np.isnan(m.x_width[0])
+
+
+def test_width_cue_lowers_the_noise_of_a_car_ahead():
+    """Monte Carlo, cars of random width and height, box edges with the detector's 5 % noise."""
+    cfg = EstimatorConfig()
+    no_w = EstimatorConfig()
+    for k in ("car",):
+        no_w.priors[k] = no_w.priors[k].model_copy(update={"width_cue": False})
+    rng = np.random.default_rng(1)
+    n = 300
+    for r in (15.0, 30.0):
+        boxes = []
+        for _ in range(n):
+            size = (4.5, rng.uniform(1.7, 1.9), rng.uniform(1.4, 1.6))
+            boxes.append(render(r, rng.uniform(-0.5, 0.5), size, cls=CAR))
+        b = np.array(boxes)
+        w, h = b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]
+        b = b + rng.normal(size=b.shape) * cfg.edge_sigma_rel * np.stack([w, h, w, h], axis=1)
+        m1 = Estimator(CAM, cfg).measure(b, np.full(n, CAR))
+        m0 = Estimator(CAM, no_w).measure(b, np.full(n, CAR))
+        e1, e0 = (float(np.sqrt(np.mean((m.x - r) ** 2))) for m in (m1, m0))
+        assert e1 < 0.92 * e0, (r, e1, e0)
+        covered = np.mean(np.abs(m1.x - r) < 2 * m1.sigma)
+        assert 0.88 < covered < 0.995, (r, covered)  # the reported std is honest
 
 
 def test_box_cut_at_the_bottom_uses_the_height_prior():
@@ -287,6 +364,39 @@ def test_braking_lead_vehicle_acceleration():
     for t, _, e in drive(**kw)[24:]:
         assert e.accel[0] < -2.0, t
         assert e.ground_vx[0] == pytest.approx(12.0 - 4.0 * t, abs=1.5), t
+
+
+def test_range_rate_std_shrinks_and_settled_latches_through_a_manoeuvre():
+    """A lead car followed at 16.7 m/s, 22 m ahead, then braking at 8 m/s^2 (``lead_brake``).
+
+    Noisy boxes (the detector's 5 % edge noise): the filter starts from the class's
+    broad velocity prior, so its range-rate std starts at 12 m/s and shrinks; the track
+    settles once it is below 1 m/s (or after ``settle_max_s``) and stays settled while
+    the std grows again in the manoeuvre.
+    """
+    cfg = EstimatorConfig()
+    est = Estimator(CAM, cfg)
+    rng = np.random.default_rng(3)
+    sig, settled, errs = [], [], []
+    for k in range(46):
+        t = k / RATE
+        tb = max(t - 3.0, 0.0)
+        gap = 22.0 - 0.5 * 8.0 * tb**2  # the lead brakes from t = 3 s; the ego keeps 16.7 m/s
+        box = render(gap, 0.0, SEDAN, cls=CAR)
+        w, h = box[2] - box[0], box[3] - box[1]
+        box = box + rng.normal(size=4) * cfg.edge_sigma_rel * np.array([w, h, w, h])
+        e = est.update(one_track(box, CAR), EgoOdometry(speed=16.7), t)
+        sig.append(e.range_rate_sigma[0])
+        settled.append(e.settled[0])
+        errs.append(e.range_rate[0] - (-8.0 * tb))
+    sig, settled = np.array(sig), np.array(settled)
+    assert sig[0] == pytest.approx(12.0)  # the prior: N(0, 12^2) ground velocity per axis
+    assert sig[20] < 0.2 * sig[0]
+    first = int(np.argmax(settled == 1.0))
+    assert settled[0] == 0.0 and 5 <= first <= round(cfg.settle_max_s * RATE)
+    assert np.all(settled[first:] == 1.0)  # latched ...
+    assert sig[40:].max() > sig[25:30].min()  # ... though the std grows in the braking
+    assert np.all(np.abs(errs[first:30]) < 1.5)  # settled and steady: good to the deadband (1 m/s)
 
 
 def test_turning_cyclist_yaw_rate():
