@@ -347,6 +347,23 @@ def eval_mot(
     raise typer.Exit(eval_mot_command(gt, tracks, format))
 
 
+@bench_app.command("all")
+@user_errors
+def bench_all(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    repeats: Annotated[int, typer.Option(help="repeats for the track and sinks benchmarks")] = 3,
+) -> None:
+    """Every benchmark (sim, track, sinks, the full loop) in one process; one JSON with all ratios."""
+    from tools.bench import print_bench
+    from tools.bench_all import bench_all as run_bench
+
+    result = run_bench(repeats=repeats)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
+    console.print(f"full loop: {result['loop_fps']:.1f} frames/s", highlight=False)
+
+
 @bench_app.command("sinks")
 @user_errors
 def bench_sinks(

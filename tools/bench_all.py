@@ -1,0 +1,50 @@
+"""``lookahead bench all``: every benchmark in one process, one JSON, one table.
+
+Runs ``bench sim``, ``bench track`` and ``bench sinks`` and the full loop
+(rendered, gt detector, every stage) on the same machine in one run; cases are
+prefixed with their benchmark's name and all ratios are gathered.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from sim.records import RecordCollector
+from sim.runner import STAGES, Runner
+from sim.scenario import load_scenario
+from tools.bench import bench_sim, case, machine
+from tools.bench_sinks import bench_sinks
+from tools.bench_track import bench_track
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def bench_loop(scenario_path: Path) -> dict:
+    """Per-stage ms of the full rendered loop over one scenario."""
+    probe = RecordCollector()
+    Runner(load_scenario(scenario_path), sinks=[probe], render=True).run()
+    cases = {}
+    for stage in STAGES:
+        values = [r.timings[stage] for r in probe.records if stage in r.timings]
+        if values:
+            cases[stage] = case(values)
+    tick = np.median([r.timings["tick"] for r in probe.records])
+    return {"cases": cases, "fps": round(float(1000.0 / tick), 2)}
+
+
+def bench_all(repeats: int = 3) -> dict:
+    scen = ROOT / "scenarios"
+    parts = {
+        "sim": bench_sim(scen / "highway_traffic.yaml"),
+        "track": bench_track(None, repeats=repeats),
+        "sinks": bench_sinks(scen / "ped_crossing_nearside.yaml", repeats=repeats),
+        "loop": bench_loop(scen / "urban_mix.yaml"),
+    }
+    cases, ratios = {}, {}
+    for name, part in parts.items():
+        for k, v in part["cases"].items():
+            cases[f"{name}/{k}"] = {key: v[key] for key in ("ms_median", "ms_p95", "n") if key in v}
+        ratios.update(part.get("ratios", {}))
+    return {"machine": machine(), "cases": cases, "ratios": ratios, "loop_fps": parts["loop"]["fps"]}
