@@ -51,7 +51,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from sim.aeb import Aeb
+from sim.aeb import Aeb, AebConfig
 from sim.runner import Runner, detector_truth
 from sim.scenario import DetectorSpec, Scenario, load_scenario
 
@@ -78,7 +78,7 @@ class LookaheadEnv(gymnasium.Env):
         scenario: str | Path | Scenario = DEFAULT_SCENARIO,
         render_camera: bool = False,
         detector: str = "gt",
-        aeb: bool = False,
+        aeb: bool | AebConfig | dict = False,
         max_objects: int = 16,
         discrete: bool = False,
         render_mode: str | None = None,
@@ -93,7 +93,13 @@ class LookaheadEnv(gymnasium.Env):
             sc = sc.model_copy(update={"perception": p})
         self.scenario = sc
         self.render_camera = bool(render_camera)
-        self.use_aeb = bool(aeb)
+        # AEB on top of the agent: off, on (True: the scenario's ego.aeb settings, else the defaults)
+        # or these settings
+        self.aeb_config = (
+            AebConfig.model_validate(aeb) if isinstance(aeb, AebConfig | dict)
+            else (sc.ego.aeb_config or AebConfig()) if aeb else None
+        )
+        self.use_aeb = self.aeb_config is not None
         self.max_objects = int(max_objects)
         self.discrete = bool(discrete)
         self.render_mode = render_mode
@@ -123,7 +129,7 @@ class LookaheadEnv(gymnasium.Env):
         self._close_runner()
         sc = self.scenario.model_copy(update={"seed": int(seed)})
         runner = Runner(sc, render=self.render_camera)
-        runner.aeb = Aeb() if self.use_aeb else None
+        runner.aeb = Aeb(self.aeb_config) if self.use_aeb else None
         ego = runner.world.ego
         # The agent's command replaces the controller (per-instance override, see module doc).
         ego.longitudinal_accel = lambda: float(self._accel_cmd)

@@ -12,6 +12,7 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -23,16 +24,20 @@ from perception.detections import Detections
 from perception.detectors.base import Detector, DetectorTruth
 from perception.estimator import Estimates, Estimator, EstimatorConfig
 from perception.frame import Frame
+from perception.preprocess import PreprocessChain
 from perception.tracker import Tracker, TrackerConfig, Tracks
 from sim.aeb import Aeb
 from sim.groundtruth import GroundTruth, compute_ground_truth
 from sim.records import Sink, TickRecord
-from sim.scenario import DetectorSpec, Scenario
+from sim.scenario import DetectorSpec, Scenario, ScenarioError
 from sim.world import World
 
 log = logging.getLogger(__name__)
 
-STAGES = ("sim", "render", "gt", "detect", "track", "estimate", "intent", "sinks", "tick")
+#: The shipped detector (``models/MODEL_CARD.md``), used by ``kind: auto`` when rendering.
+DEFAULT_MODEL = Path(__file__).resolve().parents[1] / "models" / "lookahead-det.onnx"
+
+STAGES = ("sim", "render", "gt", "preprocess", "detect", "track", "estimate", "intent", "sinks", "tick")
 
 
 def camera_from_scenario(scenario: Scenario) -> CameraModel:
@@ -43,14 +48,22 @@ def camera_from_scenario(scenario: Scenario) -> CameraModel:
     )
 
 
-def build_detector(spec: DetectorSpec, seed: int) -> Detector:
-    """The scenario's detector (``gt`` noise model or an ``onnx`` model)."""
+def resolve_detector(spec: DetectorSpec, render: bool) -> DetectorSpec:
+    """``kind: auto`` made concrete: the shipped ONNX model when frames are rendered, else ``gt``."""
+    kind = spec.kind if spec.kind != "auto" else ("onnx" if render else "gt")
+    model = spec.model or (str(DEFAULT_MODEL) if kind == "onnx" else None)
+    return spec.model_copy(update={"kind": kind, "model": model})
+
+
+def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detector:
+    """The scenario's detector (``gt`` noise model or an ``onnx`` model, see ``resolve_detector``)."""
+    spec = resolve_detector(spec, render)
     if spec.kind == "onnx":
         from perception.detectors.onnx_detector import OnnxDetector
 
-        if not spec.model:
-            raise ValueError("perception.detector.model: an onnx detector needs a model path")
-        return OnnxDetector(spec.model)
+        if not render:
+            raise ScenarioError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
+        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou)
     from perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
 
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
@@ -72,16 +85,19 @@ def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
 
 
 class PerceptionStack:
-    """Detector -> tracker -> estimator -> intent for one camera; each stage timed (ms).
+    """Preprocess -> detector -> tracker -> estimator -> intent for one camera; each stage timed (ms).
 
     Knows nothing of the simulator: ``truth`` is only handed to simulated detectors.
+    ``preprocess`` (``perception.preprocess.PreprocessChain``) feeds the detector
+    only; ``frame.image`` stays the camera's image.
     """
 
     def __init__(
         self, detector: Detector, camera: CameraModel, frame_rate: float, intent_config: IntentConfig,
         tracker_config: TrackerConfig | None = None, estimator_config: EstimatorConfig | None = None,
-        alert_config: AlertConfig | None = None,
+        alert_config: AlertConfig | None = None, preprocess: PreprocessChain | None = None,
     ) -> None:
+        self.preprocess = preprocess or PreprocessChain()
         self.detector = detector
         self.tracker = Tracker(tracker_config, frame_rate=frame_rate)
         self.estimator = Estimator(camera, estimator_config)
@@ -91,8 +107,10 @@ class PerceptionStack:
     def process(
         self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
     ) -> tuple[Detections, Tracks, Estimates, Assessment, list[Alert]]:
+        tp = time.perf_counter()
+        image = self.preprocess(frame.image)
         t0 = time.perf_counter()
-        dets = self.detector.detect(frame.image, truth)
+        dets = self.detector.detect(image, truth)
         t1 = time.perf_counter()
         tracks = self.tracker.update(dets)
         t2 = time.perf_counter()
@@ -102,8 +120,8 @@ class PerceptionStack:
         assessment = assess(kin, self.intent_config, frame.odometry.speed, frame.odometry.yaw_rate)
         alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
         t4 = time.perf_counter()
-        timings.update(detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3, estimate=(t3 - t2) * 1e3,
-                       intent=(t4 - t3) * 1e3)
+        timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3,
+                       estimate=(t3 - t2) * 1e3, intent=(t4 - t3) * 1e3)
         return dets, tracks, est, assessment, alerts
 
     def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
@@ -153,10 +171,12 @@ class Runner:
         self.intent_config = intent_config or IntentConfig().with_overrides(scenario.intent)
         p = scenario.perception
         self.perception = PerceptionStack(
-            detector or build_detector(p.detector, scenario.seed), self.camera, scenario.camera.rate,
+            detector or build_detector(p.detector, scenario.seed, render), self.camera, scenario.camera.rate,
             self.intent_config, TrackerConfig(**p.tracker), EstimatorConfig(**p.estimator),
+            alert_config=scenario.alerts, preprocess=PreprocessChain(p.preprocess),
         )
         self.renderer = None
+        self.weather = None  # sim.weather.Weather: applied to the rendered RGB (not clear)
         if render:
             from sim.renderer import Renderer
 
@@ -166,7 +186,13 @@ class Runner:
             )
             for a in self.world.agents:
                 self.renderer.add_actor(a.identity.actor_id, a.identity.shape)
-        self.aeb = Aeb() if scenario.ego.aeb else None
+            if scenario.weather.kind != "clear":
+                from sim.weather import Weather
+
+                self.weather = Weather.from_scenario(
+                    scenario, self.camera, self.world.layout, far=self.renderer.far
+                )
+        self.aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
         self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))
         self.frame_index = 0
 
@@ -189,6 +215,8 @@ class Runner:
             poses = self._poses()
             out = self.renderer.render(pose, poses)
             image, depth, seg = out.rgb, out.depth, out.seg
+            if self.weather is not None:  # only the image: depth, seg and ground truth stay exact
+                image = self.weather.apply(image, depth, self.frame_index, pose)
 
             def silhouettes(ids: list[int]) -> np.ndarray:
                 return self.renderer.silhouettes(pose, poses, ids)

@@ -8,13 +8,37 @@ longitudinal distance ahead of the ego at t = 0. See docs/scenarios.md.
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
+import re
+import typing
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    create_model,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError, core_schema
 
+from intent.alerts import AlertConfig
+from intent.config import IntentConfig
+from intent.labels import Risk
 from perception.detections import CLASSES
+from perception.detectors.gt_detector import GtNoiseConfig
+from perception.estimator import EstimatorConfig
+from perception.preprocess import PreprocessConfig
+from perception.tracker import TrackerConfig
+from sim.aeb import AebConfig
 
 ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
 SUBTYPES: dict[str, tuple[str, ...]] = {
@@ -34,6 +58,121 @@ Pos = Annotated[float, Field(ge=0)]
 
 class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
+
+
+# --- overrides of the perception / intent configs -------------------------------------------
+# ``perception.tracker``, ``perception.estimator``, ``perception.detector.noise`` and ``intent``
+# stay plain mappings (what the runner, sweeps and run.json see), but are checked on load by
+# building the real config, so a typo is a located one-line error instead of a crash at run time.
+
+
+def _relocated(err: ValidationError, prefix: tuple) -> ValidationError:
+    """``err`` with ``prefix`` put in front of every error location."""
+    return ValidationError.from_exception_data(err.title, [
+        {"type": e["type"], "loc": (*prefix, *e["loc"]), "input": e["input"], **({"ctx": e["ctx"]} if "ctx" in e else {})}
+        for e in err.errors(include_url=False)
+    ])
+
+
+def _error_at(loc: tuple, msg: str, value: Any) -> ValidationError:
+    """A one-error ``ValidationError`` at ``loc`` (for checks that span fields)."""
+    return ValidationError.from_exception_data(
+        "Scenario", [{"type": PydanticCustomError("value_error", msg), "loc": loc, "input": value}]
+    )
+
+
+@dataclass(frozen=True)
+class _Overrides:
+    """Annotation of a ``dict`` field holding overrides of a config: ``check`` validates them
+    (raising the config's own ``ValidationError``, so errors carry the key's location) and
+    returns the dict to keep; the JSON Schema is that of ``model``. ``partial``: nested
+    mappings may be given in part (they are merged into the defaults, as ``intent`` is)."""
+
+    check: Callable[[dict], dict]
+    model: type[BaseModel]
+    partial: bool = False
+
+    def __get_pydantic_core_schema__(self, source: Any, handler: Any) -> Any:
+        return core_schema.no_info_after_validator_function(self.check, handler(source))
+
+    def __get_pydantic_json_schema__(self, schema: Any, handler: Any) -> Any:
+        js = handler(self.model.__pydantic_core_schema__)
+        if self.partial:
+            seen: set[str] = set()
+
+            def optional(node: Any) -> None:
+                if isinstance(node, dict):
+                    if "$ref" in node and node["$ref"] not in seen:
+                        seen.add(node["$ref"])
+                        optional(handler.resolve_ref_schema(node))
+                    node.pop("required", None)
+                    for v in node.values():
+                        optional(v)
+                elif isinstance(node, list):
+                    for v in node:
+                        optional(v)
+
+            optional(js)
+        return js
+
+
+#: ``perception.tracker.TrackerConfig`` (a dataclass whose ``__post_init__`` checks ranges) as
+#: a pydantic model: the same fields and defaults, these bounds, descriptions from its docstring.
+_TRACKER_BOUNDS: dict[str, dict[str, float]] = {
+    "match_iou": {"ge": 0, "le": 1}, "second_match_iou": {"ge": 0, "le": 1}, "min_hits": {"ge": 1},
+    "max_lost_s": {"ge": 0}, "output_lost_s": {"ge": 0}, "tentative_max_lost_frames": {"ge": 0},
+    "reid_weight": {"ge": 0, "le": 1}, "feature_momentum": {"ge": 0, "lt": 1}, "max_abs_coord": {"gt": 0},
+    "std_weight_position": {"gt": 0}, "std_weight_velocity": {"gt": 0}, "std_weight_accel": {"gt": 0},
+    "init_velocity_std": {"gt": 0},
+}
+
+
+def _attribute_docs(cls: type) -> dict[str, str]:
+    """The Google-style ``Attributes:`` descriptions of ``cls``'s docstring."""
+    out: dict[str, str] = {}
+    name = None
+    for line in (inspect.getdoc(cls) or "").partition("Attributes:")[2].splitlines():
+        if m := re.match(r"    (\w+): (.*)", line):
+            name = m[1]
+            out[name] = m[2].strip()
+        elif name and line.startswith("        "):
+            out[name] += " " + line.strip()
+        elif line.strip():
+            break
+    return out
+
+
+def _dataclass_model(cls: type, bounds: dict[str, dict[str, float]]) -> type[BaseModel]:
+    hints, docs = typing.get_type_hints(cls), _attribute_docs(cls)
+    fields = {
+        f.name: (hints[f.name], Field(f.default, description=docs.get(f.name), **bounds.get(f.name, {})))
+        for f in dataclasses.fields(cls)
+    }
+    return create_model(cls.__name__, __config__=ConfigDict(extra="forbid"), __doc__=cls.__doc__, **fields)
+
+
+_TrackerModel = _dataclass_model(TrackerConfig, _TRACKER_BOUNDS)
+
+
+def _check_tracker(v: dict) -> dict:
+    out = _TrackerModel.model_validate(v).model_dump(exclude_unset=True)  # coerced: the dataclass is not
+    TrackerConfig(**out)  # its cross-field checks (low_score <= high_score)
+    return out
+
+
+def _check_estimator(v: dict) -> dict:
+    EstimatorConfig.model_validate(v)
+    return v
+
+
+def _check_intent(v: dict) -> dict:
+    IntentConfig().with_overrides(v)
+    return v
+
+
+TrackerOverrides = Annotated[dict[str, Any], _Overrides(_check_tracker, _TrackerModel)]
+EstimatorOverrides = Annotated[dict[str, Any], _Overrides(_check_estimator, EstimatorConfig)]
+IntentOverrides = Annotated[dict[str, Any], _Overrides(_check_intent, IntentConfig, partial=True)]
 
 
 class RoadSpec(Strict):
@@ -66,15 +205,35 @@ class EgoSpec(Strict):
     profile: list[tuple[Pos, Pos]] = Field(
         default_factory=list, description="[[t s, speed m/s], ...] for controller: profile"
     )
-    aeb: bool = False
+    aeb: bool | AebConfig = Field(
+        False,
+        description="autonomous emergency braking (sim.aeb): false = off, true = on with the defaults, or a"
+        " mapping of its settings (on), e.g. {latency: 0.3, decel: 8}",
+    )
     length: float = Field(4.6, gt=1.0, le=20.0)
     width: float = Field(1.85, gt=0.5, le=3.0)
+
+    @field_validator("aeb", mode="wrap")
+    @classmethod
+    def _aeb(cls, v: Any, handler: Any) -> Any:
+        if isinstance(v, bool | AebConfig):
+            return v
+        if isinstance(v, dict):
+            return AebConfig.model_validate(v)  # its errors keep their key (ego.aeb.latency)
+        raise ValueError(f"expected true, false or a mapping of AEB settings ({', '.join(AebConfig.model_fields)})")
 
     @model_validator(mode="after")
     def _profile_needed(self) -> EgoSpec:
         if self.controller == "profile" and len(self.profile) < 1:
             raise ValueError("controller 'profile' needs a non-empty 'profile' of [t, speed] pairs")
         return self
+
+    @property
+    def aeb_config(self) -> AebConfig | None:
+        """The AEB's settings, or None when it is off."""
+        if isinstance(self.aeb, AebConfig):
+            return self.aeb
+        return AebConfig() if self.aeb else None
 
 
 class MountSpec(Strict):
@@ -95,24 +254,108 @@ class CameraSpec(Strict):
     renderer: Literal["auto", "egl", "tiny"] = "auto"
 
 
+FOG_PRESETS: dict[str, float] = {
+    "mist": 2000.0, "light": 1000.0, "moderate": 500.0, "thick": 200.0, "dense": 50.0,
+}  # meteorological optical range (m) of the named visibility presets
+
+
 class WeatherSpec(Strict):
+    """Weather and light of the camera image (``sim.weather``); only the RGB changes, never
+    ground truth. ``None`` = the kind's default. Fields that do not apply to ``kind`` are
+    ignored (``clear`` ignores all), so a sweep may vary ``kind`` alone."""
+
     kind: Literal["clear", "night", "fog", "rain"] = "clear"
-    visibility: float | None = Field(None, gt=0.0, description="fog: meteorological visibility (m)")
-    intensity: float | None = Field(None, ge=0.0, le=1.0, description="rain/night strength")
+    visibility: (
+        Annotated[float, Field(ge=10.0, le=100_000.0)]
+        | Literal["mist", "light", "moderate", "thick", "dense"]
+        | None
+    ) = Field(
+        None,
+        description="meteorological optical range (m, contrast falls to 5 %) or a preset: mist 2000,"
+        " light 1000, moderate 500, thick 200, dense 50. fog: default thick; rain: default from"
+        " intensity; night: clear air unless given",
+    )
+    intensity: float | None = Field(
+        None, ge=0.0, le=1.0,
+        description="rain: 0 drizzle .. 1 downpour (default 0.5); night: darkness, 0 dusk .. 1"
+        " moonless (default 0.7)",
+    )
+    variation: float = Field(
+        0.3, ge=0.0, le=1.0, description="fog/haze density variation (std of log density); 0 = uniform"
+    )
+    variation_scale: float = Field(
+        40.0, ge=5.0, le=500.0, description="correlation length of the density variation (m, world-fixed)"
+    )
+    headlights: Literal["off", "low", "high"] = Field("low", description="night: the ego's headlamps")
+    street_lights: bool = Field(True, description="night: light the roadside lamp posts")
+    sensor_noise: float = Field(
+        1.0, ge=0.0, le=4.0, description="night: scale of the shot + read noise; 0 = none"
+    )
+    wind: float = Field(10.0, ge=-60.0, le=60.0, description="rain: streak slant (deg); > 0: drops drift right as they fall")
+
+    @field_validator("visibility", mode="wrap")
+    @classmethod
+    def _visibility(cls, v: Any, handler: Any) -> Any:
+        try:
+            return handler(v)
+        except ValidationError:
+            raise ValueError(
+                f"expected metres in [10, 100000] or a preset {list(FOG_PRESETS)}"
+            ) from None
+
+    @property
+    def visibility_m(self) -> float | None:
+        """Meteorological optical range (m) with presets and kind defaults resolved; None = clear air."""
+        v = self.visibility
+        if self.kind == "clear":
+            return None
+        if isinstance(v, str):
+            return FOG_PRESETS[v]
+        if v is not None:
+            return float(v)
+        if self.kind == "fog":
+            return FOG_PRESETS["thick"]
+        if self.kind == "rain":  # 0 -> 3 km, 0.5 -> 460 m, 1 -> 250 m (downpour)
+            return 3000.0 / (1.0 + 11.0 * self.rain_intensity)
+        return None
+
+    @property
+    def rain_intensity(self) -> float:
+        return 0.5 if self.intensity is None else float(self.intensity)
+
+    @property
+    def night_darkness(self) -> float:
+        return 0.7 if self.intensity is None else float(self.intensity)
 
 
 class DetectorSpec(Strict):
-    kind: Literal["gt", "onnx"] = "gt"
-    model: str | None = None
+    kind: Literal["auto", "gt", "onnx"] = Field(
+        "auto", description="auto: onnx (the shipped model) when rendering, else gt"
+    )
+    model: str | None = Field(None, description="onnx model file; default models/lookahead-det.onnx")
+    conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score")
+    iou: float = Field(0.45, gt=0.0, le=1.0, description="onnx: per-class NMS IoU threshold")
     noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")
 
 
 class PerceptionSpec(Strict):
     detector: DetectorSpec = Field(default_factory=DetectorSpec)
-    tracker: dict[str, Any] = Field(default_factory=dict, description="perception.tracker.TrackerConfig overrides")
-    estimator: dict[str, Any] = Field(
+    tracker: TrackerOverrides = Field(default_factory=dict, description="perception.tracker.TrackerConfig overrides")
+    estimator: EstimatorOverrides = Field(
         default_factory=dict, description="perception.estimator.EstimatorConfig overrides"
     )
+    preprocess: PreprocessConfig = Field(
+        default_factory=PreprocessConfig,
+        description="image preprocessing before the detector (perception.preprocess); default: none",
+    )
+
+    @model_validator(mode="after")
+    def _noise_model(self) -> PerceptionSpec:
+        try:  # the gt detector's noise model, checked whatever the detector kind
+            GtNoiseConfig.model_validate(self.detector.noise)
+        except ValidationError as e:
+            raise _relocated(e, ("detector", "noise")) from None
+        return self
 
 
 class StartSpec(Strict):
@@ -186,6 +429,86 @@ class ActorSpec(Strict):
         return self
 
 
+RISK_LEVELS: tuple[str, ...] = tuple(r.name for r in Risk)  # SAFE LOW MEDIUM HIGH CRITICAL
+RiskLevel = Literal[RISK_LEVELS]  # type: ignore[valid-type]
+
+
+class _Given(Strict):
+    """Dumps only the fields the file gave: the scorer (``tools.scoring.intent``) reads
+    expectations back from run.json as plain single-key mappings."""
+
+    @model_serializer(mode="wrap")
+    def _given(self, handler: Any) -> dict[str, Any]:
+        return {k: v for k, v in handler(self).items() if k in self.model_fields_set}
+
+
+def _one_of(schema: dict) -> None:
+    """JSON Schema of an ``X | None = None`` expectation key: just X (null is refused on load)."""
+    schema.pop("default", None)
+    branches = [b for b in schema.pop("anyOf", []) if b != {"type": "null"}]
+    if len(branches) == 1:
+        schema.update(branches[0])
+
+
+class NoAlertExpect(_Given):
+    actor: str = Field(min_length=1, description="actor id")
+    level_at_least: RiskLevel = Field("HIGH", description="alerts at this level or above count")
+
+
+class AlertExpect(NoAlertExpect):
+    before_ttc: float | None = Field(
+        None, gt=0.0, description="the first such alert comes while the true TTC is still >= s"
+    )
+
+
+class MetricExpect(_Given):
+    section: Literal["intent", "danger", "closed_loop"] = Field(
+        description="metrics.json section (expectations are scored with these three)"
+    )
+    name: str = Field(min_length=1, description="key in that section, e.g. macro_f1, missed, min_ttc")
+    min: float | None = None
+    max: float | None = None
+
+    @model_validator(mode="after")
+    def _bound(self) -> MetricExpect:
+        if self.min is None and self.max is None:
+            raise ValueError("give min and/or max")
+        return self
+
+
+class Expectation(_Given):
+    """One scored check of the run: a mapping with exactly one of these keys."""
+
+    model_config = ConfigDict(json_schema_extra={"minProperties": 1, "maxProperties": 1})
+    alert: AlertExpect | None = Field(None, description="an alert >= level_at_least on the actor", json_schema_extra=_one_of)
+    no_alert: NoAlertExpect | None = Field(
+        None, description="no alert >= level_at_least on the actor", json_schema_extra=_one_of
+    )
+    collision: bool | None = Field(None, description="whether the ego collides", json_schema_extra=_one_of)
+    max_impact_speed: float | None = Field(
+        None, ge=0.0, description="impact speed <= m/s (0 without a collision)", json_schema_extra=_one_of
+    )
+    danger_warned: Literal[True] | None = Field(
+        None, description="every danger event is warned (danger.missed == 0)", json_schema_extra=_one_of
+    )
+    metric: MetricExpect | None = Field(None, description="a metric within [min, max]", json_schema_extra=_one_of)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _one_kind(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            kinds = ", ".join(cls.model_fields)
+            unknown = [k for k in data if k not in cls.model_fields]
+            if unknown:
+                raise ValueError(f"unknown expectation {unknown[0]!r}, expected one of {kinds}")
+            if len(data) != 1:
+                raise ValueError(f"expected exactly one of {kinds}, got {len(data)} keys")
+            (k, v), = data.items()
+            if v is None:
+                raise ValueError(f"{k}: needs a value")
+        return data
+
+
 class Scenario(Strict):
     """A closed-loop scenario. ``seed`` drives every random draw."""
 
@@ -201,9 +524,14 @@ class Scenario(Strict):
     camera: CameraSpec = Field(default_factory=CameraSpec)
     weather: WeatherSpec = Field(default_factory=WeatherSpec)
     perception: PerceptionSpec = Field(default_factory=PerceptionSpec)
-    intent: dict[str, Any] = Field(default_factory=dict, description="overrides of intent thresholds")
+    intent: IntentOverrides = Field(
+        default_factory=dict, description="overrides of intent.config.IntentConfig thresholds, nested like it"
+    )
+    alerts: AlertConfig = Field(
+        default_factory=AlertConfig, description="alert debounce and hysteresis (intent.alerts), in camera frames"
+    )
     actors: list[ActorSpec] = Field(default_factory=list)
-    expect: list[dict[str, Any]] = Field(default_factory=list)
+    expect: list[Expectation] = Field(default_factory=list, description="checks scored after the run")
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
@@ -223,6 +551,10 @@ class Scenario(Strict):
             for s in a.script:
                 if s.when.actor is not None and s.when.actor.id not in ids:
                     raise ValueError(f"actor {a.id}: trigger names unknown actor {s.when.actor.id!r}")
+        for i, e in enumerate(self.expect):
+            kind = "alert" if e.alert is not None else "no_alert" if e.no_alert is not None else None
+            if kind and (actor := getattr(e, kind).actor) not in ids:
+                raise _error_at(("expect", i, kind, "actor"), f"unknown actor, expected one of {ids}", actor)
         return self
 
 

@@ -1,8 +1,10 @@
 """``lookahead bench all``: every benchmark in one process, one JSON, one table.
 
-Runs ``bench sim``, ``bench track`` and ``bench sinks`` and the full loop
-(rendered, gt detector, every stage) on the same machine in one run; cases are
-prefixed with their benchmark's name and all ratios are gathered.
+Runs ``bench sim``, ``bench track``, ``bench sinks``, ``bench env``
+(``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 vs 2
+workers) and the full loop (rendered, gt detector, every stage) on the same
+machine in one run; cases are prefixed with their benchmark's name and all
+ratios are gathered.
 """
 
 from __future__ import annotations
@@ -15,7 +17,9 @@ from sim.records import RecordCollector
 from sim.runner import STAGES, Runner
 from sim.scenario import load_scenario
 from tools.bench import bench_sim, case, machine
+from tools.bench_env import bench_env
 from tools.bench_sinks import bench_sinks
+from tools.bench_sweep import bench_sweep
 from tools.bench_track import bench_track
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -40,6 +44,8 @@ def bench_all(repeats: int = 3) -> dict:
         "sim": bench_sim(scen / "highway_traffic.yaml"),
         "track": bench_track(None, repeats=repeats),
         "sinks": bench_sinks(scen / "ped_crossing_nearside.yaml", repeats=repeats),
+        "env": bench_env(scen / "highway_traffic.yaml"),
+        "sweep": bench_sweep(scen / "sweeps" / "aeb_stationary_car.yaml"),
         "loop": bench_loop(scen / "urban_mix.yaml"),
     }
     cases, ratios = {}, {}

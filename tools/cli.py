@@ -246,18 +246,64 @@ def schema(out: Annotated[Path | None, typer.Option(help="write here instead of 
 @user_errors
 def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML files")]) -> None:
     """Validate scenario files; one line per file."""
+    from rich.markup import escape
+
     from sim.scenario import ScenarioError, load_scenario
 
     bad = 0
     for p in scenarios:
         try:
             load_scenario(p)
-            console.print(f"ok   {p}", highlight=False)
+            console.print(f"ok   {escape(str(p))}", highlight=False, soft_wrap=True)
         except ScenarioError as e:
             bad += 1
-            console.print(f"[red]bad[/]  {e}", highlight=False)
+            console.print(f"[red]bad[/]  {escape(str(e))}", highlight=False, soft_wrap=True)
     if bad:
         raise typer.Exit(2)
+
+
+@app.command()
+@user_errors
+def sweep(
+    sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP", help="sweep YAML (scenarios/sweeps/)")],
+    out: Annotated[Path, typer.Option("--out", help="sweep directory to write (re-run to resume)")],
+    workers: Annotated[int, typer.Option(min=1, help="worker processes (with --ray local: CPUs)")] = 1,
+    ray_address: Annotated[str | None, typer.Option(
+        "--ray", metavar="ADDRESS", help="run on Ray: auto | HOST:PORT | ray://... | local (needs extra distributed)",
+    )] = None,
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
+    db: Annotated[Path | None, typer.Option("--db", help="SQLite store (default OUT/sweep.sqlite)")] = None,
+    report: Annotated[bool, typer.Option("--report/--no-report", help="write OUT/report.html")] = True,
+    dry_run: Annotated[bool, typer.Option("--dry-run", help="list the variants, run nothing")] = False,
+) -> None:
+    """Run a scenario sweep (grid / random samples) on a process pool or Ray; resumable.
+
+    Finished variants are skipped on a re-run; a failing variant is recorded in
+    summary.json and the others go on (exit 1 at the end if any failed).
+    """
+    from tools.sweep import is_complete, load_sweep, run_sweep
+
+    _, _, variants = load_sweep(sweep_file)
+    todo = [v for v in variants if not is_complete(out.resolve() / "runs" / v.id, v.scenario)]
+    if dry_run:
+        for v in variants:
+            state = "todo" if v in todo else "done"
+            typer.echo(f"{state}  {v.id}  {json.dumps(v.params)}")
+        typer.echo(f"{len(variants)} variants, {len(variants) - len(todo)} done, {len(todo)} to run")
+        return
+    with _progress() as prog:
+        task = prog.add_task(f"{sweep_file.stem}: {len(todo)} of {len(variants)} variants", total=len(todo))
+        summary = run_sweep(sweep_file, out, workers=workers, ray_address=ray_address, render=render, db=db,
+                            report=report, progress=lambda r: prog.update(task, advance=1, description=r["id"]))
+    c = summary["counts"]
+    for vid, err in summary["failed"].items():
+        console.print(f"[red]failed[/] {vid}: {err}", highlight=False)
+    console.print(
+        f"sweep {summary['sweep']}: {c['done']} of {c['variants']} variants done ({c['ran']} ran, "
+        f"{c['skipped']} skipped), {c['failed']} failed, {summary['elapsed_s']:.1f} s -> {out}", highlight=False,
+    )
+    if c["failed"]:
+        raise typer.Exit(1)
 
 
 @bench_app.command("sim")
@@ -301,9 +347,9 @@ def query(
 
 @app.command()
 def report(
-    path: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR", help="run or suite directory")],
+    path: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR|SWEEP_DIR", help="run, suite or sweep directory")],
 ) -> None:
-    """Write a self-contained report.html (metrics, plots, key frames) for a run or a suite."""
+    """Write a self-contained report.html (metrics, plots, key frames) for a run, a suite or a sweep."""
     from tools.report import report_command
 
     raise typer.Exit(report_command(path))
@@ -311,16 +357,94 @@ def report(
 
 @app.command("export-dataset")
 def export_dataset(
-    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE", help="scenario or suite YAML")],
+    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE|GENERATOR",
+                                           help="scenario, suite or scene-generator YAML")],
     out: Annotated[Path, typer.Option("--out", help="dataset directory to write")],
     format: Annotated[str, typer.Option("--format", help="yolo | coco | mot | study")] = "yolo",
     every: Annotated[int, typer.Option("--every", min=1, help="export every k-th camera frame")] = 1,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render images (off: labels only)")] = True,
+    split: Annotated[list[str] | None, typer.Option("--split", help="generator: split(s) to export (default all)")] = None,
+    weather: Annotated[str | None, typer.Option("--weather", help="generator: force clear | night | fog | rain")] = None,
+    workers: Annotated[int, typer.Option("--workers", min=1, help="generator: scenes in parallel processes")] = 1,
 ) -> None:
-    """Run scenarios with rendering and export images + ground-truth labels as a dataset."""
+    """Run scenarios with rendering and export images + ground-truth labels as a dataset.
+
+    A generator file (``generator:`` section, see scenarios/generators/) exports one
+    dataset per split (disjoint seed ranges) into OUT/<split>.
+    """
     from tools.export import export_command
 
-    raise typer.Exit(export_command(source, format, every, out, render))
+    raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers))
+
+
+@app.command("train-detector")
+@user_errors
+def train_detector(
+    data: Annotated[Path, typer.Argument(help="dataset directory with train/ (and val/) COCO splits")],
+    out: Annotated[Path, typer.Option("--out", help="ONNX model to write")] = Path("models/lookahead-det.onnx"),
+    epochs: Annotated[int, typer.Option(min=1)] = 12,
+    batch: Annotated[int, typer.Option(min=1)] = 16,
+    lr: Annotated[float, typer.Option(min=1e-6)] = 2e-3,
+    seed: Annotated[int, typer.Option(min=0)] = 0,
+    eval_every: Annotated[int, typer.Option(min=0, help="validate every k epochs (0: at the end)")] = 4,
+    limit: Annotated[int | None, typer.Option(min=1, help="use only the first N training images")] = None,
+    log_file: Annotated[Path | None, typer.Option("--log", help="write the training log (JSON) here")] = None,
+) -> None:
+    """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        console.print("[bold red]error:[/] train-detector needs torch: pip install -e '.[train]'", markup=True)
+        raise typer.Exit(2) from None
+    from tools.detector.train import TrainConfig, train
+
+    logging.getLogger("tools.detector").setLevel(logging.INFO)  # one line per epoch
+    cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit)
+    with _progress() as prog:
+        task = prog.add_task("training", total=1.0)
+        result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f))
+    if log_file is not None:
+        log_file.parent.mkdir(parents=True, exist_ok=True)
+        log_file.write_text(json.dumps(result, indent=2) + "\n")
+    last = result["history"][-1]
+    print(f"{out}: {result['images']} images, {result['seconds']:.0f} s, last epoch {last}")
+
+
+@app.command("eval-detector")
+@user_errors
+def eval_detector(
+    model: Annotated[Path, typer.Argument(help="ONNX detector")],
+    splits: Annotated[list[Path], typer.Argument(help="COCO split directories (annotations.json + images/)")],
+    conf: Annotated[float, typer.Option(help="operating score threshold for precision / recall")] = 0.25,
+    preprocess: Annotated[str | None, typer.Option(
+        help="preprocessing chain before the detector, YAML, e.g. '[{op: clahe, clip_limit: 3}, {op: gamma, gamma: 1.5}]'"
+    )] = None,
+    out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
+) -> None:
+    """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
+    from tools.detector.evaluate import evaluate_model
+
+    chain = None
+    if preprocess is not None:
+        import yaml
+
+        from perception.preprocess import PreprocessChain
+
+        try:
+            chain = PreprocessChain(yaml.safe_load(preprocess))
+        except (ValueError, yaml.YAMLError) as e:
+            console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False)
+            raise typer.Exit(2) from None
+    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain) for sp in splits}
+    print(f"{'split':32s} {'AP50':>6s} {'pooled':>6s} {'R@P95':>6s} {'P':>6s} {'R':>6s}  per-class AP50")
+    for sp, m in results.items():
+        pc = " ".join(f"{k[:4]}={v['ap50']:.2f}" for k, v in m["per_class"].items())
+        f = lambda v: f"{v:6.3f}" if v is not None else "     -"  # noqa: E731
+        print(f"{sp[-32:]:32s} {f(m['ap50'])} {f(m['ap50_pooled'])} {f(m['recall_at_p95'])} "
+              f"{f(m['precision'])} {f(m['recall'])}  {pc}")
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(results, indent=2) + "\n")
 
 
 @app.command()
@@ -353,7 +477,7 @@ def bench_all(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     repeats: Annotated[int, typer.Option(help="repeats for the track and sinks benchmarks")] = 3,
 ) -> None:
-    """Every benchmark (sim, track, sinks, the full loop) in one process; one JSON with all ratios."""
+    """Every benchmark (sim, track, sinks, env, sweep, the full loop) in one process; one JSON with all ratios."""
     from tools.bench import print_bench
     from tools.bench_all import bench_all as run_bench
 
@@ -362,6 +486,27 @@ def bench_all(
     out.write_text(json.dumps(result, indent=2) + "\n")
     print_bench(result, console)
     console.print(f"full loop: {result['loop_fps']:.1f} frames/s", highlight=False)
+
+
+@bench_app.command("detect")
+@user_errors
+def bench_detect(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    model: Annotated[Path | None, typer.Option(help="ONNX model (default: the shipped one)")] = None,
+    scenario: Annotated[Path, typer.Option(help="scenario whose frames are detected")] = Path("scenarios/urban_mix.yaml"),
+    frames: Annotated[int, typer.Option(min=1, help="rendered frames")] = 30,
+    repeats: Annotated[int, typer.Option(min=1, help="passes over the frames")] = 3,
+) -> None:
+    """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360."""
+    from sim.runner import DEFAULT_MODEL
+    from tools.bench import print_bench
+    from tools.bench_detect import bench_detect as run_bench
+
+    result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
+    console.print(f"detector: {result['fps']:.1f} frames/s on {result['providers'][0]}", highlight=False)
 
 
 @bench_app.command("sinks")
@@ -393,6 +538,42 @@ def bench_track(
 
     result = run_bench(out, repeats=repeats)
     print_track_bench(result, console)
+
+
+@bench_app.command("env")
+@user_errors
+def bench_env(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic")] = Path("scenarios/highway_traffic.yaml"),
+    steps: Annotated[int, typer.Option(help="timed env steps")] = 600,
+) -> None:
+    """ForwardTracks-v0 steps vs bare highway-env with the same traffic; real-time factor."""
+    from tools.bench import print_bench
+    from tools.bench_env import bench_env as run_bench
+
+    result = run_bench(scenario, steps=steps)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
+
+
+@bench_app.command("sweep")
+@user_errors
+def bench_sweep(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)")] = Path(
+        "scenarios/sweeps/aeb_stationary_car.yaml"),
+    variants: Annotated[int | None, typer.Option(help="use only the first N variants")] = None,
+    repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
+) -> None:
+    """Wall time of one sweep on 1 worker and on 2 workers (warm pools, rendering off)."""
+    from tools.bench import print_bench
+    from tools.bench_sweep import bench_sweep as run_bench
+
+    result = run_bench(sweep_file, variants=variants, repeats=repeats)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
 
 
 @app.command()

@@ -2,32 +2,72 @@
 
 from __future__ import annotations
 
+import json
+from collections.abc import Iterable
 from pathlib import Path
 
-from tools.draw import draw_ground_truth, save_rgb
+from tools.draw import save_rgb
 from tools.rundir import prepare_dir
 from tools.suite import load_suite
 
 ROOT = Path(__file__).resolve().parents[1]
 KEY_FRAMES = (0.25, 0.5, 0.75)  # fractions of each run at which a PNG is kept
+KEY_ALERTS = ("fcw", "critical")  # the first alert event of each of these kinds is a key frame too
+KEY_FRAMES_INDEX = "key_frames.json"
+
+
+def key_frame_reason(index: int, frames_total: int, alert_kinds: Iterable[str], collision: bool,
+                     seen: set[str]) -> str | None:
+    """Why camera frame ``index`` is a key frame, or None: the first ``fcw`` / ``critical``
+    alert and the first collision of the run (``seen`` collects those already used; pass
+    the same set for every frame, in order), and the frames at ``KEY_FRAMES`` of
+    ``frames_total``. One rule for the demo's PNGs and the report's frames from a video."""
+    why = []
+    for kind in KEY_ALERTS:
+        if kind in alert_kinds and kind not in seen:
+            seen.add(kind)
+            why.append(f"first {kind} alert")
+    if collision and "collision" not in seen:
+        seen.add("collision")
+        why.append("collision")
+    why += [f"{f:.0%} of the run" for f in KEY_FRAMES if index == int(f * frames_total)]
+    return ", ".join(why) or None
 
 
 class KeyFrameSink:
-    """Saves annotated PNGs of the frames nearest given fractions of the run."""
+    """Saves PNGs of the key frames (``key_frame_reason``) with the annotated video's overlay
+    (``tools.video.Overlay``: tracks coloured by risk, labels, range, TTC, trails, alert banner)."""
 
-    def __init__(self, out: Path, frames_total: int) -> None:
-        self.out, self.want = prepare_dir(out), {int(f * frames_total) for f in KEY_FRAMES}
+    def __init__(self, out: Path, frames_total: int, lang: str = "en") -> None:
+        from tools.video import Overlay
+
+        self.out, self.frames_total = prepare_dir(out), frames_total
+        self.overlay = Overlay(lang)
         self.saved: list[Path] = []
+        self.reasons: dict[int, str] = {}
+        self._seen: set[str] = set()
 
-    def on_start(self, info: dict) -> None: ...
+    def on_start(self, info: dict) -> None:
+        self.overlay.reset()
+        self._seen = set()
 
     def on_tick(self, rec) -> None:
-        if rec.frame_index in self.want and rec.frame.image is not None:
-            path = self.out / f"frame_{rec.frame_index:04d}.png"
-            save_rgb(path, draw_ground_truth(rec.frame.image, rec.ground_truth))
-            self.saved.append(path)
+        if rec.frame.image is None:
+            return
+        kinds = {a["kind"] if isinstance(a, dict) else a.kind for a in rec.alerts}
+        why = key_frame_reason(rec.frame_index, self.frames_total, kinds, bool(rec.collisions), self._seen)
+        if why is None:
+            self.overlay.observe(rec)
+            return
+        path = self.out / f"frame_{rec.frame_index:04d}.png"
+        save_rgb(path, self.overlay.annotate(rec))
+        self.saved.append(path)
+        self.reasons[path.name] = why
 
-    def on_end(self, summary: dict) -> None: ...
+    def on_end(self, summary: dict) -> None:
+        """``key_frames.json`` beside the PNGs: file name -> why it was kept (the report's captions)."""
+        if self.reasons:
+            (self.out / KEY_FRAMES_INDEX).write_text(json.dumps(self.reasons, indent=1) + "\n")
 
 
 def run_demo(out: Path, console) -> dict:

@@ -13,7 +13,14 @@ Formats (``out`` layout):
 * ``yolo``: ``images/{seq}_{frame:06d}.png``, ``labels/{seq}_{frame:06d}.txt``
   (``class cx cy w h``, normalised to [0, 1], 6 decimals; an empty file for a
   frame without objects), ``data.yaml`` (``train``/``val`` = ``images``
-  relative to the YAML, ``nc``, ``names``).
+  relative to the YAML, ``nc``, ``names``, and ``attributes``, the sidecar
+  directory). The label files stay standard 5-column YOLO; what YOLO has no
+  column for is in the sidecar ``attributes/{seq}_{frame:06d}.json`` (one per
+  image, a separate directory so YOLO loaders never see it): a JSON list whose
+  item k describes line k of the label file -- ``actor_id`` (= the COCO
+  ``track_id``), ``name``, ``class_id``, ``subtype``, ``occlusion`` (1 -
+  visible_fraction), ``truncation`` (share of the amodal box outside the image),
+  both 3 decimals as in COCO, and ``range_m`` (nearest point's x, 3 decimals).
 * ``coco``: ``images/{seq}_{frame:06d}.png`` and ``annotations.json``: images
   (1-based ids, with ``sequence``, ``frame_index``, ``t``), annotations (``bbox``
   [x, y, w, h] px, ``area``, ``iscrowd`` 0, ``track_id`` = actor id,
@@ -160,24 +167,32 @@ class Writer:
 
 
 class YoloWriter(Writer):
+    ATTRIBUTES = "attributes"  # sidecar directory (module docstring)
+
     def __init__(self, out: Path) -> None:
         super().__init__(out)
         self.images, self.labels = prepare_dir(out / "images"), prepare_dir(out / "labels")
+        self.attributes = prepare_dir(out / self.ATTRIBUTES)
 
     def write(self, rec: TickRecord, labels: list[ObjectLabel]) -> None:
         s = self.seq
         stem = f"{s.name}_{rec.frame_index:06d}"
         self._image(self.images / f"{stem}{self.image_ext}", rec)
-        lines = []
+        lines, attrs = [], []
         for o in labels:
             x0, y0, x1, y1 = o.xyxy
             cx, cy = (x0 + x1) / 2 / s.width, (y0 + y1) / 2 / s.height
             w, h = (x1 - x0) / s.width, (y1 - y0) / s.height
             lines.append(f"{o.class_id} {cx:.6f} {cy:.6f} {w:.6f} {h:.6f}\n")
+            attrs.append({"actor_id": o.actor_id, "name": o.name, "class_id": o.class_id, "subtype": o.subtype,
+                          "occlusion": round(1.0 - o.visible_fraction, 3), "truncation": round(o.truncation, 3),
+                          "range_m": round(o.range_m, 3)})
         (self.labels / f"{stem}.txt").write_text("".join(lines))
+        (self.attributes / f"{stem}.json").write_text(json.dumps(attrs, ensure_ascii=False) + "\n")
 
     def finish(self) -> None:
-        data = {"train": "images", "val": "images", "nc": len(CLASSES), "names": dict(enumerate(CLASSES))}
+        data = {"train": "images", "val": "images", "nc": len(CLASSES), "names": dict(enumerate(CLASSES)),
+                "attributes": self.ATTRIBUTES}
         (self.out / "data.yaml").write_text(
             "# lookahead export-dataset (YOLO); paths relative to this file\n" + yaml.safe_dump(data, sort_keys=False)
         )
@@ -322,8 +337,6 @@ def export_scenarios(
 ) -> dict:
     """Run each scenario and export every ``every``-th frame into ``out`` (``extra_sinks``
     are given to every run, e.g. to keep a run directory). Returns a summary dict."""
-    from sim.runner import Runner
-
     if every < 1:
         raise ValueError(f"--every: expected an integer >= 1, got {every}")
     names = [s.name for s in scenarios]
@@ -331,6 +344,36 @@ def export_scenarios(
         raise ValueError(f"scenario names must be unique in one export, got {names}")
     out = prepare_dir(Path(out))
     writer = make_writer(fmt, out, every)
+    seqs = _run_export(scenarios, writer, every, render, extra_sinks)
+    writer.finish()
+    return {
+        "format": fmt, "out": str(out), "every": every, "sequences": seqs,
+        "frames": sum(s["frames"] for s in seqs), "objects": sum(s["objects"] for s in seqs),
+    }
+
+
+def _export_chunk(gen_path: str, seeds: list[int], weather: str | None, fmt: str, every: int,
+                  out: str) -> tuple[list[dict], list[dict], list[dict]]:
+    """A worker's job: export the generated scenes ``seeds`` into ``out``.
+
+    Returns (sequence summaries, COCO images, COCO annotations) -- the COCO lists
+    (empty for other formats) are merged and renumbered by the caller.
+    """
+    from tools.scene_gen import generate_scenario, load_generator
+
+    spec = load_generator(gen_path)
+    scenarios = [generate_scenario(spec, s, weather) for s in seeds]
+    writer = make_writer(fmt, Path(out), every)
+    seqs = _run_export(scenarios, writer, every, render=True)
+    if isinstance(writer, CocoWriter):
+        return seqs, writer.images, writer.annotations
+    return seqs, [], []
+
+
+def _run_export(scenarios: Sequence[Scenario], writer: Writer, every: int, render: bool,
+                extra_sinks: Sequence[Sink] = ()) -> list[dict]:
+    from sim.runner import Runner
+
     seqs = []
     for sc in scenarios:
         seq = _Seq(sc.name, sc.camera.width, sc.camera.height, float(sc.camera.rate))
@@ -339,12 +382,72 @@ def export_scenarios(
         if sink.missing_images:
             log.warning("%s: %d frame(s) without an image (render off?)", sc.name, sink.missing_images)
         seqs.append({"name": seq.name, "frames": seq.frames, "images": sink.images, "objects": seq.objects})
-        log.info("%s: %d frames, %d objects -> %s", sc.name, seq.frames, seq.objects, out)
-    writer.finish()
-    return {
-        "format": fmt, "out": str(out), "every": every, "sequences": seqs,
-        "frames": sum(s["frames"] for s in seqs), "objects": sum(s["objects"] for s in seqs),
-    }
+        log.info("%s: %d frames, %d objects", sc.name, seq.frames, seq.objects)
+    return seqs
+
+
+def export_generated(
+    gen_path: Path, fmt: str, every: int, out: Path, splits: Sequence[str] | None = None,
+    weather: str | None = None, workers: int = 1, chunk: int = 8, progress=None,
+) -> dict:
+    """Export the scenes of a generator file (``tools.scene_gen``), one dataset per split in
+    ``out/<split>``; ``weather`` forces one weather kind on every scene (same scenes).
+
+    Scenes run on a process pool of ``workers`` in chunks of ``chunk`` seeds; the
+    result does not depend on ``workers`` (COCO ids follow seed order).
+    """
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    from tools.scene_gen import generate_scenario, load_generator, split_seeds
+
+    if every < 1:
+        raise ValueError(f"--every: expected an integer >= 1, got {every}")
+    spec = load_generator(gen_path)
+    splits = list(splits or spec.splits)
+    seeds = {sp: list(split_seeds(spec, sp)) for sp in splits}  # validates the split names
+    for sp in splits:  # validate a scene of each split (and the weather name) before running anything
+        generate_scenario(spec, seeds[sp][0], weather)
+    out = prepare_dir(Path(out))
+    result: dict = {"format": fmt, "out": str(out), "every": every, "weather": weather, "splits": {}}
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) if workers > 1 else None
+    try:
+        for sp in splits:
+            split_dir = prepare_dir(out / sp)
+            writer = make_writer(fmt, split_dir, every)
+            jobs = [(str(gen_path), seeds[sp][i:i + chunk], weather, fmt, every, str(split_dir))
+                    for i in range(0, len(seeds[sp]), chunk)]
+            if pool is None:
+                parts = []
+                for job in jobs:
+                    parts.append(_export_chunk(*job))
+                    if progress:
+                        progress(len(job[1]))
+            else:
+                futures = [pool.submit(_export_chunk, *job) for job in jobs]
+                parts = []
+                for f, job in zip(futures, jobs, strict=True):
+                    parts.append(f.result())
+                    if progress:
+                        progress(len(job[1]))
+            seqs = [s for part in parts for s in part[0]]
+            if isinstance(writer, CocoWriter):
+                for _, images, annotations in parts:
+                    base = len(writer.images)
+                    for im in images:
+                        writer.images.append({**im, "id": im["id"] + base})
+                    for an in annotations:
+                        writer.annotations.append(
+                            {**an, "id": len(writer.annotations) + 1, "image_id": an["image_id"] + base})
+            writer.sequences = [_Seq(s["name"], spec.camera.width, spec.camera.height, spec.camera.rate)
+                                for s in seqs]
+            writer.finish()
+            result["splits"][sp] = {"scenes": len(seeds[sp]), "frames": sum(s["frames"] for s in seqs),
+                                    "objects": sum(s["objects"] for s in seqs)}
+    finally:
+        if pool is not None:
+            pool.shutdown()
+    return result
 
 
 def load_sources(source: Path) -> list[Scenario]:
@@ -364,9 +467,30 @@ def export_dataset(source: Path, fmt: str, every: int, out: Path, render: bool =
     return export_scenarios(load_sources(source), fmt, every, out, render=render)
 
 
-def export_command(source: Path, fmt: str, every: int, out: Path, render: bool = True) -> int:
-    """CLI body of ``lookahead export-dataset``: 0, or 2 with one ``error:`` line."""
+def export_command(
+    source: Path, fmt: str, every: int, out: Path, render: bool = True, splits: Sequence[str] | None = None,
+    weather: str | None = None, workers: int = 1, progress=None,
+) -> int:
+    """CLI body of ``lookahead export-dataset``: 0, or 2 with one ``error:`` line.
+
+    ``source`` may be a scenario, a suite or a generator file (``tools.scene_gen``);
+    ``splits``, ``weather`` and ``workers`` apply to generator files only.
+    """
+    from tools.scene_gen import is_generator
+    from tools.suite import read_yaml
+
     try:
+        if fmt not in FORMATS:
+            raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+        if is_generator(read_yaml(source, "scenario, suite or generator")):
+            result = export_generated(Path(source), fmt, every, Path(out), splits, weather, workers,
+                                      progress=progress)
+            for sp, r in result["splits"].items():
+                print(f"{sp}: {r['scenes']} scenes, {r['frames']} frames, {r['objects']} objects")
+            print(f"{fmt} dataset -> {out}")
+            return 0
+        if splits or weather:
+            raise ValueError("--split and --weather apply to generator files only")
         result = export_dataset(Path(source), fmt, every, Path(out), render=render)
     except (ScenarioError, OutputError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -13,7 +13,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from tools.mot_eval import evaluate_mot, run_tracker_on_mot
+from tools.mot_eval import evaluate_mot, resolve_frame_rate, run_tracker_on_mot
 
 _FORMATS = ("table", "json")
 _TABLE_KEYS = (
@@ -43,14 +43,32 @@ def _describe(exc: Exception) -> str:
     return str(exc)
 
 
-def track_command(det: Path, out: Path, frame_rate: float) -> int:
-    """Track a MOTChallenge det.txt into a tracks file; print a one-line summary."""
-    if not frame_rate > 0:
+def track_command(det: Path, out: Path, frame_rate: float | None = None) -> int:
+    """Track a MOTChallenge det.txt into a tracks file; print the frame rate used and a summary.
+
+    ``frame_rate`` None: ``frameRate`` of the sequence's ``seqinfo.ini`` (beside
+    det.txt or one directory up, i.e. ``<seq>/det/det.txt`` -> ``<seq>/seqinfo.ini``),
+    else ``DEFAULT_MOT_FRAME_RATE`` (30) with a ``warning:`` line on stderr.
+    """
+    if frame_rate is not None and not frame_rate > 0:
         return _fail(f"--frame-rate must be positive, got {frame_rate}")
     try:
-        summary = run_tracker_on_mot(det, out, frame_rate=frame_rate)
+        rate, source, info = resolve_frame_rate(det, frame_rate)
+        if source == "default":
+            where = "has no frameRate" if info is not None else "found beside or above it"
+            what = f"{info.path} {where}" if info is not None else f"no seqinfo.ini {where}"
+            print(
+                f"warning: {det}: {what}; assuming {rate:g} fps (pass --frame-rate to set it)",
+                file=sys.stderr,
+            )
+        elif source == "--frame-rate" and info is not None and info.frame_rate not in (None, rate):
+            print(f"warning: --frame-rate {rate:g} overrides frameRate={info.frame_rate:g} of {info.path}",
+                  file=sys.stderr)
+        summary = run_tracker_on_mot(det, out, frame_rate=rate)
     except (OSError, ValueError) as exc:
         return _fail(_describe(exc))
+    origin = {"--frame-rate": "from --frame-rate", "default": "default"}.get(source, f"from {source}")
+    print(f"frame rate: {rate:g} fps ({origin})")
     print(
         f"wrote {out}: {summary['track_rows']} rows, {summary['tracks']} tracks over "
         f"{summary['frames']} frames ({summary['dropped_detections']} invalid detections dropped)"

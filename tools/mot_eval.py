@@ -15,6 +15,7 @@ Ground-truth preprocessing follows TrackEval's ``MotChallenge2DBox``:
 
 from __future__ import annotations
 
+import configparser
 import dataclasses
 import logging
 from pathlib import Path
@@ -232,11 +233,99 @@ def track_records(
     return MotRecords.concat(out)
 
 
+#: Frame rate assumed when neither the caller nor a ``seqinfo.ini`` gives one, frames/s:
+#: most MOTChallenge sequences (MOT16, MOT17, MOT20) run at 30 fps, and ByteTrack,
+#: OC-SORT and BoT-SORT all default to 30.
+DEFAULT_MOT_FRAME_RATE = 30.0
+
+
+@dataclasses.dataclass(frozen=True)
+class SeqInfo:
+    """The ``[Sequence]`` section of a MOTChallenge ``seqinfo.ini`` (missing keys are None)."""
+
+    path: Path
+    name: str | None = None
+    frame_rate: float | None = None
+    length: int | None = None
+    width: int | None = None
+    height: int | None = None
+
+
+def read_seqinfo(path: str | Path) -> SeqInfo:
+    """Parse a ``seqinfo.ini`` (``frameRate``, ``seqLength``, ``imWidth``, ``imHeight``, ``name``).
+
+    Raises:
+        OSError: unreadable file.
+        ValueError: not an ini file, no ``[Sequence]`` section, or a present
+            numeric key that is not a positive number (message names file and key).
+    """
+    path = Path(path)
+    parser = configparser.ConfigParser(interpolation=None)  # keys are case-insensitive
+    try:
+        parser.read_string(path.read_text(encoding="utf-8"), source=str(path))
+    except configparser.Error as exc:
+        raise ValueError(f"{path}: not a seqinfo.ini ({str(exc).splitlines()[0]})") from None
+    if not parser.has_section("Sequence"):
+        raise ValueError(f"{path}: no [Sequence] section")
+    sec = parser["Sequence"]
+
+    def number(key: str, kind: type) -> float | int | None:
+        text = sec.get(key, "").strip()
+        if not text:
+            return None
+        try:
+            value = float(text)
+        except ValueError:
+            value = float("nan")
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{path}: {key}={text!r} is not a positive number")
+        return kind(value) if kind is float else int(round(value))
+
+    return SeqInfo(
+        path=path, name=sec.get("name") or None, frame_rate=number("frameRate", float),
+        length=number("seqLength", int), width=number("imWidth", int), height=number("imHeight", int),
+    )
+
+
+def find_seqinfo(det_path: str | Path) -> Path | None:
+    """The ``seqinfo.ini`` of a detection file: beside it, else one directory up.
+
+    MOTChallenge lays a sequence out as ``<seq>/seqinfo.ini``, ``<seq>/det/det.txt``,
+    ``<seq>/gt/gt.txt``; some copies keep ``det.txt`` next to ``seqinfo.ini``. Nothing
+    further up is searched (a parent's file would belong to another sequence).
+    """
+    parent = Path(det_path).resolve().parent
+    for folder in (parent, parent.parent):
+        candidate = folder / "seqinfo.ini"
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def resolve_frame_rate(det_path: str | Path, frame_rate: float | None) -> tuple[float, str, SeqInfo | None]:
+    """Frame rate to track ``det_path`` at: ``(rate, source, seqinfo)``.
+
+    ``frame_rate`` given: it wins (source ``"--frame-rate"``). Otherwise the
+    ``frameRate`` of the ``seqinfo.ini`` found by ``find_seqinfo`` (source: its
+    path), else ``DEFAULT_MOT_FRAME_RATE`` (source ``"default"``). The seqinfo found
+    (or None) is returned in every case, for its ``seqLength``.
+    """
+    ini = find_seqinfo(det_path)
+    info = read_seqinfo(ini) if ini is not None else None
+    if frame_rate is not None:
+        if not (np.isfinite(frame_rate) and frame_rate > 0):
+            raise ValueError(f"--frame-rate must be positive, got {frame_rate}")
+        return float(frame_rate), "--frame-rate", info
+    if info is not None and info.frame_rate is not None:
+        return info.frame_rate, str(info.path), info
+    return DEFAULT_MOT_FRAME_RATE, "default", info
+
+
 def run_tracker_on_mot(
     det_path: str | Path,
     out_path: str | Path,
     config: TrackerConfig | None = None,
-    frame_rate: float = 10.0,
+    frame_rate: float | None = None,
     num_frames: int | None = None,
 ) -> dict:
     """Track a MOT det file and write a MOT tracks file.
@@ -245,15 +334,23 @@ def run_tracker_on_mot(
         det_path: MOTChallenge ``det.txt``.
         out_path: tracks file to write (parent directories created).
         config: tracker parameters (``mot_tracker_config()`` when None).
-        frame_rate: sequence frame rate, frames/s (MOT17 is mostly 30).
-        num_frames: sequence length; default the last frame with a detection.
+        frame_rate: sequence frame rate, frames/s; None = ``resolve_frame_rate``
+            (the sequence's ``seqinfo.ini``, else ``DEFAULT_MOT_FRAME_RATE``).
+        num_frames: sequence length; default ``seqLength`` of the sequence's
+            ``seqinfo.ini``, else the last frame with a detection (never fewer
+            than the last frame with a detection).
 
     Returns:
-        Summary dict: ``frames, detections, dropped_detections, track_rows, tracks``.
+        Summary dict: ``frames, detections, dropped_detections, track_rows, tracks,
+        frame_rate, frame_rate_source`` (``"--frame-rate"``, a seqinfo.ini path or
+        ``"default"``), ``seqinfo`` (path or None).
     """
+    rate, source, info = resolve_frame_rate(det_path, frame_rate)
     dets = normalise_scores(read_mot(det_path))
-    tracker = Tracker(config or mot_tracker_config(), frame_rate=frame_rate)
-    n = dets.num_frames if num_frames is None else num_frames
+    tracker = Tracker(config or mot_tracker_config(), frame_rate=rate)
+    if num_frames is None and info is not None and info.length is not None:
+        num_frames = info.length
+    n = dets.num_frames if num_frames is None else max(int(num_frames), dets.num_frames)
     tracks = track_records(dets, tracker, n)
     write_mot(out_path, tracks)
     summary = {
@@ -262,6 +359,9 @@ def run_tracker_on_mot(
         "dropped_detections": tracker.dropped_detections,
         "track_rows": len(tracks),
         "tracks": len(np.unique(tracks.track_id)),
+        "frame_rate": rate,
+        "frame_rate_source": source,
+        "seqinfo": None if info is None else str(info.path),
     }
     log.info("tracked %s -> %s: %s", det_path, out_path, summary)
     return summary

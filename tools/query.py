@@ -2,7 +2,8 @@
 
 * ``alerts``  -- one row per alert event (t s, range m, TTC s, level name, reason).
 * ``tracks``  -- one row per (run, track): class, frames, first/last t, min range,
-  min TTC, max risk, the GT actor it followed most.
+  min TTC (estimator), max risk and the reason text of its first frame at that
+  risk (table ``assessments``), the GT actor it followed most.
 * ``objects`` -- one row per (run, GT actor): class, frames, first/last seen
   (t in ground truth), min range, min TTC, max risk, first tracked, first alert.
 * ``summary`` -- one row per run: frames, end time, collisions, alerts by level, complete.
@@ -38,7 +39,11 @@ _SQL = {
     "tracks": """
         SELECT t.run_id AS run, t.track_id, MIN(t.cls) AS cls, COUNT(*) AS frames,
                MIN(t.t) AS first_t, MAX(t.t) AS last_t, MIN(t.range) AS min_range,
-               MIN(t.ttc) AS min_ttc, MAX(t.risk) AS max_risk,
+               MIN(t.ttc) AS min_ttc,
+               (SELECT MAX(a.risk) FROM assessments a
+                WHERE a.run_id = t.run_id AND a.track_id = t.track_id) AS max_risk,
+               (SELECT a.reason FROM assessments a WHERE a.run_id = t.run_id AND a.track_id = t.track_id
+                ORDER BY a.risk DESC, a.frame LIMIT 1) AS reason,
                (SELECT s.source_id FROM tracks s
                 WHERE s.run_id = t.run_id AND s.track_id = t.track_id AND s.source_id IS NOT NULL
                 GROUP BY s.source_id ORDER BY COUNT(*) DESC, s.source_id LIMIT 1) AS actor_id

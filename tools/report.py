@@ -3,9 +3,16 @@
 A run page holds the headline numbers, the expectations, every ``metrics.json``
 section as tables, four matplotlib figures (intent confusion matrix, range
 error vs true range, TTC over time per actor with alerts, per-stage timing)
-and the annotated key frames saved in ``frames/*.png`` (``tools/demo.py``'s
-``KeyFrameSink``) when there are any. Images are inlined as base64 PNG and the
-CSS is inline: the page opens offline and can be mailed as one file.
+and a strip of annotated key frames: the PNGs saved in ``frames/*.png``
+(``tools/demo.py``'s ``KeyFrameSink``, captions from ``frames/key_frames.json``)
+when there are any, else frames read back (OpenCV) from the run's
+``annotated.mp4``; both carry the video's overlay (``tools.video.Overlay``) and
+are chosen by the same rule (``tools.demo.key_frame_reason``: first FCW, first
+critical alert, first collision, 25/50/75 % of the run; at most
+``MAX_KEY_FRAMES``). Video frame k is taken to be ``ticks.jsonl`` line k (the
+video holds every rendered frame). Images are inlined as base64 (PNG; frames
+from the video as JPEG) and the CSS is inline: the page opens offline and can
+be mailed as one file.
 
 A suite page (a directory with ``summary.json``) has one row per scenario with
 its key metrics and a relative link to that run's own report (built too), and
@@ -44,6 +51,8 @@ SUMMARY_FILE = "summary.json"
 TTC_PLOT_MAX_S = 10.0
 MAX_TTC_PANELS = 6
 MAX_KEY_FRAMES = 12
+VIDEO_FILE = "annotated.mp4"
+KEY_FRAME_JPEG_QUALITY = 85
 _NEVER = 1e8  # TTC values at or above this are "never" (written as 1e9)
 _STAGE_ORDER = ("sim", "render", "gt", "detect", "track", "estimate", "intent", "sinks", "tick")
 _LEVEL_COLOURS = {1: "#9aa0a6", 2: "#f4b400", 3: "#ff6d00", 4: "#d50000"}
@@ -396,18 +405,85 @@ def _expectations(exp: list[dict]) -> str:
     return _table(["result", "expectation", "detail"], rows, classes)
 
 
-def _key_frames(run_dir: Path, records: list[dict]) -> str:
+def _figure(alt: str, mime: str, data: bytes, caption: str) -> str:
+    b64 = base64.b64encode(data).decode("ascii")
+    return (f'<figure><img alt="{_e(alt)}" src="data:{mime};base64,{b64}">'
+            f"<figcaption>{_e(caption)}</figcaption></figure>")
+
+
+def _saved_key_frames(run_dir: Path, records: list[dict]) -> list[str]:
+    """Figures of the PNGs in ``frames/`` (captions: file, t, and why from ``key_frames.json``)."""
+    from tools.demo import KEY_FRAMES_INDEX
+
     paths = sorted((run_dir / "frames").glob("*.png"))[:MAX_KEY_FRAMES]
     if not paths:
-        return '<p class="muted">no key frames saved (frames/*.png; written by rendered demo runs)</p>'
+        return []
+    index = run_dir / "frames" / KEY_FRAMES_INDEX
+    try:
+        reasons = json.loads(index.read_text(encoding="utf-8")) if index.is_file() else {}
+    except (OSError, json.JSONDecodeError):
+        reasons = {}
     times = {int(r.get("frame", k)): r["t"] for k, r in enumerate(records)}
     figs = []
     for p in paths:
         digits = "".join(ch for ch in p.stem if ch.isdigit())
         cap = p.name + (f" — t = {times[int(digits)]:.2f} s" if digits and int(digits) in times else "")
-        b64 = base64.b64encode(p.read_bytes()).decode("ascii")
-        figs.append(f'<figure><img alt="{_e(p.name)}" src="data:image/png;base64,{b64}">'
-                    f"<figcaption>{_e(cap)}</figcaption></figure>")
+        if isinstance(reasons, dict) and reasons.get(p.name):
+            cap += f" — {reasons[p.name]}"
+        figs.append(_figure(p.name, "image/png", p.read_bytes(), cap))
+    return figs
+
+
+def video_key_frames(run_dir: Path, records: list[dict]) -> list[tuple[int, str, bytes]]:
+    """(frame index, why, JPEG bytes) of the key frames of ``run_dir/annotated.mp4``, read
+    with OpenCV; [] when there is no video or it cannot be read (logged)."""
+    import cv2
+
+    from tools.demo import key_frame_reason
+
+    path = run_dir / VIDEO_FILE
+    if not path.is_file():
+        return []
+    seen: set[str] = set()
+    want: dict[int, str] = {}
+    for k, r in enumerate(records):
+        kinds = {a.get("kind") for a in r.get("alerts") or []}
+        why = key_frame_reason(k, len(records), kinds, bool(r.get("collisions")), seen)
+        if why and len(want) < MAX_KEY_FRAMES:
+            want[k] = why
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        log.warning("%s: OpenCV cannot read the video; no key frames from it", path)
+        return []
+    out = []
+    try:
+        n = int(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+        if n and n != len(records):
+            log.warning("%s: %d frames for %d records; key frames may be off", path, n, len(records))
+        last = max(want, default=-1)
+        k = 0
+        while k <= last and cap.grab():
+            if k in want:
+                ok, img = cap.retrieve()
+                enc, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, KEY_FRAME_JPEG_QUALITY]) if ok else (False, None)
+                if enc:
+                    out.append((int(records[k].get("frame", k)), want[k], buf.tobytes()))
+            k += 1
+    finally:
+        cap.release()
+    return out
+
+
+def _key_frames(run_dir: Path, records: list[dict]) -> str:
+    figs = _saved_key_frames(run_dir, records)
+    if not figs:
+        times = {int(r.get("frame", k)): r["t"] for k, r in enumerate(records)}
+        figs = [_figure(f"{VIDEO_FILE} frame {f}", "image/jpeg", data,
+                        f"{VIDEO_FILE} frame {f}" + (f" — t = {times[f]:.2f} s" if f in times else "") + f" — {why}")
+                for f, why, data in video_key_frames(run_dir, records)]
+    if not figs:
+        return ('<p class="muted">no key frames (frames/*.png from rendered demo runs, or frames of '
+                f"{VIDEO_FILE} from a rendered run with --video)</p>")
     return f'<div class="frames">{"".join(figs)}</div>'
 
 
@@ -562,7 +638,9 @@ def build_report(path: Path) -> Path:
     if (path / "ticks.jsonl").is_file():
         return build_run_report(path)
     if (path / SUMMARY_FILE).is_file():
-        return build_suite_report(path)
+        from tools.sweep_report import build_sweep_report, is_sweep_dir
+
+        return build_sweep_report(path) if is_sweep_dir(path) else build_suite_report(path)
     raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import platform
 from importlib import metadata
 from pathlib import Path
@@ -40,7 +41,7 @@ def prepare_dir(path: Path) -> Path:
     """Create ``path`` (and parents); one clear error if it cannot be written."""
     try:
         path.mkdir(parents=True, exist_ok=True)
-        probe = path / ".write-test"
+        probe = path / f".write-test-{os.getpid()}"  # per process: workers share dirs
         probe.write_text("")
         probe.unlink()
     except OSError as e:
@@ -49,10 +50,22 @@ def prepare_dir(path: Path) -> Path:
 
 
 class RunDirWriter:
-    """A sink that writes the run directory of one scenario run."""
+    """A sink that writes the run directory of one scenario run.
+
+    ``__init__`` only checks (creates the directory, probes a write, refuses run files that
+    are directories or read-only); nothing is written or truncated before ``on_start``.
+    """
+
+    FILES = ("run.json", "ticks.jsonl", "timings.jsonl")
 
     def __init__(self, out_dir: Path, scenario: Scenario, source: str | None = None) -> None:
         self.dir = prepare_dir(Path(out_dir))
+        for name in self.FILES:
+            f = self.dir / name
+            if f.is_dir():
+                raise OutputError(f"{f}: is a directory, cannot write the run file")
+            if f.exists() and not os.access(f, os.W_OK):
+                raise OutputError(f"{f}: the run file is not writable")
         self.scenario = scenario
         self.source = source
         self._ticks = None

@@ -1,12 +1,21 @@
 """``SqliteStore``: a sink that writes runs into one SQLite database (a whole suite can share it).
 
-One row per camera frame in ``frames``, per actor per frame in ``ground_truth``,
-per detection / track per frame in ``detections`` / ``tracks``, per event in
-``alerts`` / ``collisions``, per stage per frame in ``timings`` (ms). SI units
-(m, s, m/s, rad), boxes in float pixels xyxy. NaN is stored as NULL, a TTC of
-"not closing" as +inf (SQLite REAL ``Inf``). ``risk`` and alert ``level`` are
+One row per camera frame in ``frames``, per actor per frame in ``ground_truth``
+(with the GT label, behaviour, risk, TTC and in-path flag), per detection / track
+per frame in ``detections`` / ``tracks`` (tracks: box, state and the estimator's
+kinematics -- range, lateral offset, their rates, ground velocity, TTC), per
+track per frame in ``assessments`` (intent's output: label, behaviour, risk,
+TTC, in-path flag and the English reason text, ``intent.alerts.reason_text``;
+join with ``tracks`` on run_id, frame, track_id), per event in ``alerts`` /
+``collisions``, per stage per frame in ``timings`` (ms). SI units (m, s, m/s,
+rad), boxes in float pixels xyxy. NaN is stored as NULL, a TTC of "not
+closing" as +inf (SQLite REAL ``Inf``). ``risk`` and alert ``level`` are
 ``intent.labels.Risk`` integers (0 SAFE .. 4 CRITICAL; table ``risk_levels``
 names them) so they order; labels, behaviours and classes are text.
+
+Schema versions: 1 had label/behaviour/risk/in_path as ``tracks`` columns and no
+``assessments`` table; 2 (current) moved them to ``assessments``. Files of
+another version are refused (one line), never migrated in place.
 
 Durability: WAL journal, ``synchronous=NORMAL`` (a killed process loses at
 most the uncommitted batch; an OS crash may lose the last commits too, never
@@ -33,6 +42,7 @@ from urllib.parse import quote
 
 import numpy as np
 
+from intent.alerts import reason_text
 from intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES, Risk
 from perception.detections import CLASSES
 from sim.records import TickRecord, jsonable
@@ -40,7 +50,7 @@ from sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 APPLICATION_ID = 0x4C4B4844  # "LKHD"
 BUSY_TIMEOUT_S = 30.0  # wait this long for another writer (parallel suite workers share a DB)
 _SQLITE_MAGIC = b"SQLite format 3\x00"
@@ -50,8 +60,8 @@ _BEHAVIOURS = np.array([BEHAVIOUR_NAMES[k] for k in sorted(BEHAVIOUR_NAMES)], dt
 _CLASSES = np.array([*CLASSES, "obstacle"], dtype=object)  # index -1 -> "obstacle"
 
 _BOX = "{p}_x1 REAL, {p}_y1 REAL, {p}_x2 REAL, {p}_y2 REAL"
-_KIN = ("range REAL, lateral REAL, range_rate REAL, lateral_rate REAL, ttc REAL, in_path INTEGER, "
-        "label TEXT, behaviour TEXT, risk INTEGER")
+_EST = "range REAL, lateral REAL, range_rate REAL, lateral_rate REAL, ttc REAL"
+_KIN = f"{_EST}, in_path INTEGER, label TEXT, behaviour TEXT, risk INTEGER"
 
 SCHEMA: tuple[str, ...] = (
     """CREATE TABLE runs (
@@ -78,7 +88,11 @@ SCHEMA: tuple[str, ...] = (
         track_id INTEGER NOT NULL, class_id INTEGER, cls TEXT, score REAL, age INTEGER, hits INTEGER,
         state INTEGER, {_BOX.format(p="box")}, det_index INTEGER, source_id INTEGER,
         range_sigma REAL, half_width REAL, ground_vx REAL, ground_vy REAL, accel REAL, yaw_rate REAL,
-        {_KIN})""",
+        {_EST})""",
+    """CREATE TABLE assessments (
+        run_id INTEGER NOT NULL REFERENCES runs(id), frame INTEGER NOT NULL, t REAL NOT NULL,
+        track_id INTEGER NOT NULL, label TEXT, behaviour TEXT, risk INTEGER, ttc REAL, in_path INTEGER,
+        reason TEXT)""",
     """CREATE TABLE alerts (
         run_id INTEGER NOT NULL REFERENCES runs(id), frame INTEGER NOT NULL, t REAL NOT NULL,
         track_id INTEGER, actor_id INTEGER, cls TEXT, kind TEXT, level INTEGER, range REAL, ttc REAL,
@@ -95,12 +109,14 @@ SCHEMA: tuple[str, ...] = (
     "CREATE INDEX tracks_track ON tracks (run_id, track_id, frame)",
     "CREATE INDEX tracks_frame ON tracks (run_id, frame)",
     "CREATE INDEX tracks_cls ON tracks (cls, run_id)",
+    "CREATE INDEX assessments_track ON assessments (run_id, track_id, frame)",
+    "CREATE INDEX assessments_risk ON assessments (run_id, risk)",
     "CREATE INDEX alerts_level ON alerts (run_id, level)",
     "CREATE INDEX collisions_run ON collisions (run_id)",
 )
 
 #: Tables written per frame, in insertion order.
-_TABLES = ("frames", "ground_truth", "detections", "tracks", "alerts", "collisions", "timings")
+_TABLES = ("frames", "ground_truth", "detections", "tracks", "assessments", "alerts", "collisions", "timings")
 
 
 class StoreError(ValueError):
@@ -180,7 +196,8 @@ def _check_schema(conn: sqlite3.Connection, path: Path, create: bool) -> None:
             f"{path}: not a lookahead store (application_id {app}, user_version {version}, tables: {shown})"
         )
     raise StoreError(
-        f"{path}: lookahead store schema version {version}, this version reads only {SCHEMA_VERSION}"
+        f"{path}: lookahead store schema version {version}, this version reads only {SCHEMA_VERSION} "
+        "(use a new file; old stores are not migrated)"
     )
 
 
@@ -381,6 +398,11 @@ class SqliteStore:
             rows["tracks"].extend(zip(
                 repeat(run, n_tr), repeat(f), repeat(t), *self._track_cols(r, source), strict=False,
             ))
+            if r.assessments is not None and len(r.assessments) == n_tr:
+                rows["assessments"].extend(zip(
+                    repeat(run, n_tr), repeat(f), repeat(t), tr.track_id.tolist(),
+                    *self._assessment_cols(r), strict=False,
+                ))
         if n_tr:  # last known GT actor of each track (a coasting track keeps it), for alerts
             known = source >= 0
             self._track_actor.update(zip(tr.track_id[known].tolist(), source[known].tolist(), strict=True))
@@ -400,7 +422,7 @@ class SqliteStore:
 
     @staticmethod
     def _track_cols(r: TickRecord, source: np.ndarray) -> list[list]:
-        tr, est, a = r.tracks, r.estimates, r.assessments
+        tr, est = r.tracks, r.estimates
         n = len(tr)
         nan = [float("nan")] * n
         def e(name: str) -> list:
@@ -411,9 +433,18 @@ class SqliteStore:
             tr.age.tolist(), tr.hits.tolist(), tr.state.tolist(), *_cols(tr.xyxy), tr.det_index.tolist(),
             _ids(source), e("range_sigma"), e("half_width"), e("ground_vx"), e("ground_vy"), e("accel"),
             e("yaw_rate"), e("range"), e("lateral"), e("range_rate"), e("lateral_rate"), e("ttc"),
-            [None] * n if a is None else np.asarray(a.in_path, dtype=np.int64).tolist(),
-            _names(_LABELS, None if a is None else a.label, n),
-            _names(_BEHAVIOURS, None if a is None else a.behaviour, n),
-            [None] * n if a is None else np.asarray(a.risk, dtype=np.int64).tolist(),
+        ]
+
+    @staticmethod
+    def _assessment_cols(r: TickRecord) -> list[list]:
+        """label, behaviour, risk, ttc, in_path, reason of each track (``r.assessments`` row order)."""
+        a, n = r.assessments, len(r.assessments)
+        rng = r.estimates.range.tolist() if r.estimates is not None else [float("nan")] * n
+        ttc, beh, lab, risk = a.ttc.tolist(), a.behaviour.tolist(), a.label.tolist(), a.risk.tolist()
+        reasons = [reason_text(rg, tc, b, lb, rk)[0] for rg, tc, b, lb, rk in zip(rng, ttc, beh, lab, risk, strict=True)]
+        return [
+            _names(_LABELS, a.label, n), _names(_BEHAVIOURS, a.behaviour, n),
+            np.asarray(a.risk, dtype=np.int64).tolist(), ttc, np.asarray(a.in_path, dtype=np.int64).tolist(),
+            reasons,
         ]
 

@@ -12,6 +12,12 @@ frame. Without a CJK font the sink warns once and falls back to English.
 The writer is OpenCV's ``VideoWriter``: H.264 (``avc1``) when the OpenCV build
 can encode it, else MPEG-4 Part 2 (``mp4v``; plays in VLC/ffmpeg, not in
 browsers); encoding runs on a background thread, in frame order. Frames without an image (rendering off) are skipped with one warning.
+
+The drawing and its frame-to-frame state is ``Overlay`` (``VideoSink`` is an
+``Overlay`` that also writes); the demo's key-frame PNGs use the same class, so
+key frames and video look alike. The output path is checked when the sink is
+made (``check_video_path``: parent created, not a directory, writable, an MP4
+encoder opens), so a bad ``--video`` fails before any sink has written.
 """
 
 from __future__ import annotations
@@ -219,7 +225,7 @@ def _quiet_stderr() -> Iterator[None]:
 def open_mp4_writer(path: Path, fps: float, size: tuple[int, int]) -> tuple[cv2.VideoWriter, str]:
     """An opened ``cv2.VideoWriter`` for ``path`` (W, H) and the FOURCC used; OutputError if none opens."""
     global _WORKING_FOURCC
-    order = (_WORKING_FOURCC,) if _WORKING_FOURCC else FOURCCS
+    order = (_WORKING_FOURCC, *(c for c in FOURCCS if c != _WORKING_FOURCC)) if _WORKING_FOURCC else FOURCCS
     for cc in order:
         with _quiet_stderr():
             w = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*cc), float(fps), size)
@@ -228,6 +234,39 @@ def open_mp4_writer(path: Path, fps: float, size: tuple[int, int]) -> tuple[cv2.
             return w, cc
         w.release()
     raise OutputError(f"{path}: OpenCV could not open an MP4 writer (tried {', '.join(order)})")
+
+
+def check_video_path(path: Path) -> None:
+    """Fail now (``OutputError``, one line) if an MP4 cannot be written at ``path``: creates the
+    parent directory; refuses a directory or a read-only file; checks that the directory takes
+    a file and that OpenCV can encode an MP4 (once per process, on a probe file removed at once).
+    ``path`` itself is not touched."""
+    path = Path(path)
+    if path.is_dir():
+        raise OutputError(f"{path}: is a directory, not a video file")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise OutputError(f"{path}: cannot create the video's directory ({e.strerror or e})") from None
+    if path.exists() and not os.access(path, os.W_OK):
+        raise OutputError(f"{path}: the video file is not writable")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise OutputError(f"{path}: the video's directory is not writable")
+    probe = path.parent / f".{path.stem}.probe-{os.getpid()}{path.suffix or '.mp4'}"
+    try:
+        if _WORKING_FOURCC is None:
+            writer, _ = open_mp4_writer(probe, 10.0, (64, 64))
+            writer.release()
+        else:
+            probe.write_bytes(b"")
+    except OutputError:
+        raise OutputError(f"{path}: OpenCV cannot write an MP4 here (tried {', '.join(FOURCCS)}: "
+                          "no encoder in this build, or the directory refuses files)") from None
+    except OSError as e:
+        raise OutputError(f"{path}: cannot write in the video's directory ({e.strerror or e})") from None
+    finally:
+        with contextlib.suppress(OSError):
+            probe.unlink()
 
 
 class _AsyncWriter:
@@ -282,7 +321,7 @@ def _place(box: tuple[int, int, int, int], cw: int, ch: int, placed: np.ndarray,
     return int(cand[k, 0]), int(cand[k, 1])
 
 
-# ----------------------------------------------------------------------------- sink
+# ----------------------------------------------------------------------------- overlay and sink
 @dataclass
 class _Style:
     text: _CvText | _PilText
@@ -291,21 +330,18 @@ class _Style:
     pad: int
 
 
-class VideoSink:
-    """A runner sink writing an annotated MP4 (see the module doc).
+class Overlay:
+    """The annotation drawn on each frame (see the module doc) and the state it carries from
+    frame to frame (trails, active alerts, a recent collision). ``VideoSink`` is one; the demo's
+    key frames (``tools.demo.KeyFrameSink``) and the report draw with one too.
 
-    ``fps`` is the camera rate; ``lang`` ``"en"`` or ``"zh"``; ``trail_s`` the
-    trajectory length (s). ``frames_written`` counts frames in the file.
+    Feed every frame in order: ``annotate`` (draw) or ``observe`` (state only, no drawing).
     """
 
-    def __init__(self, path: Path, fps: float, lang: str = "en", trail_s: float = 2.0) -> None:
+    def __init__(self, lang: str = "en", trail_s: float = 2.0) -> None:
         global _FONT_WARNED
         if lang not in ("en", "zh"):
             raise ValueError(f"lang: expected 'en' or 'zh', got {lang!r}")
-        if fps <= 0:
-            raise ValueError(f"fps: expected > 0, got {fps}")
-        self.path = Path(path)
-        self.fps = float(fps)
         self.trail_s = float(trail_s)
         self.lang = lang
         self.font: tuple[str, int] | None = None
@@ -317,12 +353,7 @@ class VideoSink:
                     log.warning("no CJK font found (looked in %s); install fonts-noto-cjk; falling back to English",
                                 _font_places())
                     _FONT_WARNED = True
-        self.fourcc: str | None = None
-        self.frames_written = 0
-        self._writer: _AsyncWriter | None = None
-        self._size: tuple[int, int] | None = None
         self._style: _Style | None = None
-        self._warned_no_image = False
         self._reset()
 
     def _reset(self) -> None:
@@ -330,61 +361,24 @@ class VideoSink:
         self._alerts: dict[int, Alert] = {}
         self._collision: tuple[float, str] | None = None
 
-    # -- sink protocol
-    def on_start(self, info: dict) -> None:
+    def reset(self) -> None:
+        """Forget trails, alerts and collisions (a new run starts)."""
         self._reset()
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise OutputError(f"{self.path}: cannot create the video's directory ({e.strerror or e})") from None
-        if not os.access(self.path.parent, os.W_OK):
-            raise OutputError(f"{self.path}: the video's directory is not writable")
 
-    def on_tick(self, record: TickRecord) -> None:
-        img = record.frame.image
-        if img is None:
-            if not self._warned_no_image:
-                log.warning("%s: frames without an image (rendering off) are not written to the video", self.path)
-                self._warned_no_image = True
-            return
-        out = self.annotate(record)
-        h, w = out.shape[:2]
-        if self._writer is None:
-            writer, self.fourcc = open_mp4_writer(self.path, self.fps, (w, h))
-            self._writer = _AsyncWriter(writer)
-            self._size = (w, h)
-            log.info("%s: writing %dx%d @ %.3g fps (%s)", self.path, w, h, self.fps, self.fourcc)
-        if (w, h) != self._size:
-            out = cv2.resize(out, self._size, interpolation=cv2.INTER_AREA)
-        self._writer.write(out)
-        self.frames_written += 1
-
-    def on_end(self, summary: dict) -> None:
-        self.close()
-
-    def close(self) -> None:
-        if self._writer is not None:
-            writer, self._writer = self._writer, None
-            writer.close()
-            log.info("%s: %d frames", self.path, self.frames_written)
-
-    # -- drawing
-    def _style_for(self, h: int) -> _Style:
-        if self._style is None:
-            k = max(h / 360.0, 0.5)
-            text = _PilText(*self.font, size_px=round(13 * k)) if self.lang == "zh" and self.font else _CvText(0.4 * k)
-            self._style = _Style(text, max(1, round(2 * k)), max(1, round(2 * k)), max(2, round(3 * k)))
-        return self._style
+    def observe(self, record: TickRecord) -> dict[str, np.ndarray]:
+        """Advance the trail and alert state by one frame without drawing; returns the track rows."""
+        rows = self._track_rows(record)
+        self._update_trails(record.t, rows)
+        self._update_alerts(record, rows)
+        return rows
 
     def annotate(self, record: TickRecord) -> np.ndarray:
         """The record's camera image (RGB) with the overlay drawn (the input is not modified).
 
-        Advances the trail and alert state: call once per frame, in order."""
+        Advances the trail and alert state: call once per frame, in order (or ``observe``)."""
         img = np.array(record.frame.image, dtype=np.uint8, copy=True)
         st = self._style_for(img.shape[0])
-        rows = self._track_rows(record)
-        self._update_trails(record.t, rows)
-        self._update_alerts(record, rows)
+        rows = self.observe(record)
         banner = self._banner(record)
         header_h = st.text.line_h + st.pad
         banner_h = st.text.line_h + st.pad + 2 if banner else 0
@@ -394,6 +388,14 @@ class VideoSink:
         if banner:
             self._draw_banner(img, st, header_h, *banner)
         return img
+
+    # -- drawing
+    def _style_for(self, h: int) -> _Style:
+        if self._style is None:
+            k = max(h / 360.0, 0.5)
+            text = _PilText(*self.font, size_px=round(13 * k)) if self.lang == "zh" and self.font else _CvText(0.4 * k)
+            self._style = _Style(text, max(1, round(2 * k)), max(1, round(2 * k)), max(2, round(3 * k)))
+        return self._style
 
     def _track_rows(self, record: TickRecord) -> dict[str, np.ndarray]:
         tr, est, a = record.tracks, record.estimates, record.assessments
@@ -538,3 +540,58 @@ class VideoSink:
         y0, y1 = top + 2, top + 2 + tx.line_h + st.pad
         cv2.rectangle(img, (0, y0), (img.shape[1] - 1, y1), risk_colour(level), -1)
         tx.put(img, text, st.pad, y0 + st.pad // 2, _FG if level >= Risk.CRITICAL else _BG)
+
+
+class VideoSink(Overlay):
+    """A runner sink writing an annotated MP4 (see the module doc).
+
+    ``fps`` is the camera rate; ``lang`` ``"en"`` or ``"zh"``; ``trail_s`` the
+    trajectory length (s). ``frames_written`` counts frames in the file.
+    The output is checked here (``check_video_path``), before any sink starts,
+    so a bad ``path`` fails before the run directory is touched.
+    """
+
+    def __init__(self, path: Path, fps: float, lang: str = "en", trail_s: float = 2.0) -> None:
+        if fps <= 0:
+            raise ValueError(f"fps: expected > 0, got {fps}")
+        super().__init__(lang, trail_s)
+        self.path = Path(path)
+        self.fps = float(fps)
+        check_video_path(self.path)
+        self.fourcc: str | None = None
+        self.frames_written = 0
+        self._writer: _AsyncWriter | None = None
+        self._size: tuple[int, int] | None = None
+        self._warned_no_image = False
+
+    # -- sink protocol
+    def on_start(self, info: dict) -> None:
+        self._reset()
+
+    def on_tick(self, record: TickRecord) -> None:
+        img = record.frame.image
+        if img is None:
+            if not self._warned_no_image:
+                log.warning("%s: frames without an image (rendering off) are not written to the video", self.path)
+                self._warned_no_image = True
+            return
+        out = self.annotate(record)
+        h, w = out.shape[:2]
+        if self._writer is None:
+            writer, self.fourcc = open_mp4_writer(self.path, self.fps, (w, h))
+            self._writer = _AsyncWriter(writer)
+            self._size = (w, h)
+            log.info("%s: writing %dx%d @ %.3g fps (%s)", self.path, w, h, self.fps, self.fourcc)
+        if (w, h) != self._size:
+            out = cv2.resize(out, self._size, interpolation=cv2.INTER_AREA)
+        self._writer.write(out)
+        self.frames_written += 1
+
+    def on_end(self, summary: dict) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._writer is not None:
+            writer, self._writer = self._writer, None
+            writer.close()
+            log.info("%s: %d frames", self.path, self.frames_written)

@@ -62,3 +62,149 @@ def test_bad_input_is_one_line_naming_file_field_and_expectation(text, expected)
 def test_missing_file(tmp_path):
     with pytest.raises(ScenarioError, match="no such scenario file"):
         load_scenario(tmp_path / "nope.yaml")
+
+
+# --- the perception / intent override sections, expectations, AEB and alert settings ----------
+
+BASE = "name: a\nactors:\n  - {id: p, type: pedestrian, start: {x: 20, y: 2}}\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "where", "field"),
+    [
+        ("perception:\n  detector:\n    noise: {box_sigma: 0.1, miss_rat: 0.1}\n", "x.yaml:6", "perception.detector.noise.miss_rat"),
+        ("perception:\n  detector:\n    noise:\n      miss_rate: 3\n", "x.yaml:7", "perception.detector.noise.miss_rate"),
+        ("perception:\n  tracker:\n    max_lost: 1.0\n", "x.yaml:6", "perception.tracker.max_lost"),
+        ("perception:\n  tracker:\n    min_hits: 2\n    max_lost_s: -1\n", "x.yaml:7", "perception.tracker.max_lost_s"),
+        ("perception:\n  estimator:\n    motion_model: kalman\n", "x.yaml:6", "perception.estimator.motion_model"),
+        ("perception:\n  estimator:\n    edge_sigma_rell: 0.1\n", "x.yaml:6", "perception.estimator.edge_sigma_rell"),
+        ("intent:\n  horizn: 3\n", "x.yaml:5", "intent.horizn"),
+        ("intent:\n  risk:\n    pedestrian:\n      high_ttc: soon\n", "x.yaml:7", "intent.risk.pedestrian.high_ttc"),
+    ],
+)
+def test_bad_perception_and_intent_overrides_are_located_errors(text, where, field):
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(BASE + text, "x.yaml")
+    msg = str(e.value)
+    assert "\n" not in msg
+    assert msg.startswith(f"{where}: {field}: "), msg
+
+
+def test_tracker_cross_field_check_and_coercion():
+    with pytest.raises(ScenarioError, match=r"x.yaml:5: perception.tracker: .*low_score <= high_score"):
+        parse_scenario(BASE + "perception:\n  tracker: {low_score: 0.9}\n", "x.yaml")
+    sc = parse_scenario(BASE + "perception:\n  tracker: {max_lost_s: '2', min_hits: 3}\n", "x.yaml")
+    assert sc.perception.tracker == {"max_lost_s": 2.0, "min_hits": 3}  # what TrackerConfig(**...) gets
+
+
+def test_good_overrides_stay_plain_mappings():
+    text = BASE + (
+        "perception:\n  detector: {noise: {miss_rate: 0.1}}\n  estimator: {motion_model: cv}\n"
+        "intent: {risk: {pedestrian: {high_ttc: 2.5}}}\n"
+    )
+    sc = parse_scenario(text, "x.yaml")
+    assert sc.intent == {"risk": {"pedestrian": {"high_ttc": 2.5}}}
+    assert sc.perception.estimator == {"motion_model": "cv"}
+    dumped = sc.model_dump(mode="json")
+    assert dumped["intent"] == sc.intent and dumped["perception"]["estimator"] == {"motion_model": "cv"}
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("expect:\n  - alrt: {actor: p}\n", ["x.yaml:5", "expect[0]", "unknown expectation 'alrt'"]),
+        ("expect:\n  - alert: {actor: p, level_at_least: HUGE}\n",
+         ["x.yaml:5", "expect[0].alert.level_at_least", "'HIGH' or 'CRITICAL'", "'HUGE'"]),
+        ("expect:\n  - collision: false\n  - no_alert:\n      actor: q\n", ["x.yaml:7", "expect[1].no_alert.actor", "unknown actor", "'q'"]),
+        ("expect:\n  - {collision: false, danger_warned: true}\n", ["expect[0]", "exactly one"]),
+        ("expect:\n  - max_impact_speed: -1\n", ["expect[0].max_impact_speed", "greater than or equal to 0"]),
+        ("expect:\n  - metric: {section: danger, name: missed}\n", ["expect[0].metric", "min and/or max"]),
+    ],
+)
+def test_bad_expectation_is_one_line(text, expected):
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(BASE + text, "x.yaml")
+    msg = str(e.value)
+    assert "\n" not in msg
+    for part in expected:
+        assert part in msg, msg
+
+
+def test_expectations_dump_as_given_for_the_scorer():
+    text = BASE + (
+        "expect:\n  - alert: {actor: p, level_at_least: CRITICAL}\n  - no_alert: {actor: p}\n"
+        "  - collision: false\n  - danger_warned: true\n  - metric: {section: closed_loop, name: min_ttc, min: 1}\n"
+    )
+    dumped = parse_scenario(text, "x.yaml").model_dump(mode="json")["expect"]
+    assert dumped == [
+        {"alert": {"actor": "p", "level_at_least": "CRITICAL"}}, {"no_alert": {"actor": "p"}},
+        {"collision": False}, {"danger_warned": True},
+        {"metric": {"section": "closed_loop", "name": "min_ttc", "min": 1.0}},
+    ]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("ego: {aeb: {latency: -1}}\n", "x.yaml:4: ego.aeb.latency: Input should be greater than or equal to 0"),
+        ("ego:\n  aeb: {latncy: 0.3}\n", "x.yaml:5: ego.aeb.latncy: unknown field"),
+        ("ego: {aeb: fast}\n", "x.yaml:4: ego.aeb: expected true, false or a mapping"),
+        ("alerts: {off_frames: 0}\n", "x.yaml:4: alerts.off_frames: Input should be greater than or equal to 1"),
+    ],
+)
+def test_bad_aeb_and_alert_settings(text, expected):
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(BASE + text, "x.yaml")
+    assert str(e.value).startswith(expected), str(e.value)
+
+
+def test_aeb_and_alert_settings_reach_the_runner():
+    from intent.alerts import AlertConfig
+    from sim.aeb import AebConfig
+    from sim.runner import Runner
+
+    sc = parse_scenario(BASE + "ego: {aeb: {latency: 0.5, decel: 4}}\nalerts: {on_frames_high: 3, off_frames: 5}\n")
+    r = Runner(sc, render=False)
+    assert r.aeb.config == AebConfig(latency=0.5, decel=4.0)
+    assert r.perception.alerts.config == AlertConfig(on_frames_high=3, off_frames=5)
+    assert Runner(parse_scenario(BASE + "ego: {aeb: true}\n"), render=False).aeb.config == AebConfig()
+    assert Runner(parse_scenario(BASE + "ego: {aeb: off}\n"), render=False).aeb is None
+
+
+def _aeb_run(aeb: str) -> tuple[float, float, list]:
+    """(time the brake came on, final range to the stationary car (m), collisions) of
+    ``scenarios/stationary_car.yaml`` with ``ego.aeb: AEB``, closed loop without rendering."""
+    from sim.records import RecordCollector
+    from sim.runner import Runner
+
+    text = (ROOT / "scenarios" / "stationary_car.yaml").read_text()
+    assert "controller: cruise}" in text
+    sc = parse_scenario(text.replace("controller: cruise}", f"controller: cruise, aeb: {aeb}}}"), "stationary_car.yaml")
+    sink = RecordCollector()
+    summary = Runner(sc, sinks=[sink], render=False).run()
+    braking = [r.t for r in sink.records if r.ego["brake"] is not None]
+    gt = sink.records[-1].ground_truth
+    return braking[0], float(gt.range[gt.class_id >= 0].min()), summary.collisions
+
+
+def test_longer_aeb_latency_stops_later():
+    t_quick, gap_quick, hits_quick = _aeb_run("{latency: 0.2}")
+    t_slow, gap_slow, hits_slow = _aeb_run("{latency: 0.8}")
+    assert not hits_quick and not hits_slow
+    assert t_slow - t_quick == pytest.approx(0.6, abs=0.15)  # camera frames are 0.1 s apart
+    assert gap_slow < gap_quick - 1.0, (gap_quick, gap_slow)
+
+
+def test_schema_describes_overrides_aeb_alerts_and_expectations():
+    s = scenario_json_schema()
+    defs = s["$defs"]
+    assert {"type": "boolean"} in defs["EgoSpec"]["properties"]["aeb"]["anyOf"]
+    assert {"$ref": "#/$defs/AebConfig"} in defs["EgoSpec"]["properties"]["aeb"]["anyOf"]
+    assert s["properties"]["alerts"]["$ref"] == "#/$defs/AlertConfig"
+    assert s["properties"]["expect"]["items"] == {"$ref": "#/$defs/Expectation"}
+    assert defs["AlertExpect"]["properties"]["level_at_least"]["enum"] == ["SAFE", "LOW", "MEDIUM", "HIGH", "CRITICAL"]
+    tracker = defs["PerceptionSpec"]["properties"]["tracker"]
+    assert tracker["additionalProperties"] is False and tracker["properties"]["max_lost_s"]["minimum"] == 0
+    assert defs["PerceptionSpec"]["properties"]["estimator"]["$ref"] == "#/$defs/EstimatorConfig"
+    assert "horizon" in s["properties"]["intent"]["properties"]
+    assert "required" not in defs["RiskThresholds"]  # intent overrides may be partial

@@ -90,3 +90,74 @@ def test_a_file_that_is_not_a_database_is_refused_untouched(tmp_path):
     assert res.exit_code == 2 and "not a SQLite database" in res.output
     assert len(res.output.strip().splitlines()) == 1
     assert db.read_bytes() == b"these are my notes, not a database\n"
+
+
+def _gt_scenario(tmp_path: Path) -> Path:
+    """PED with the ground-truth detector written out (the default ONNX model may be absent)."""
+    import yaml
+
+    data = yaml.safe_load(PED.read_text())
+    data.setdefault("perception", {}).setdefault("detector", {})["kind"] = "gt"
+    path = tmp_path / "ped_gt.yaml"
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def _snapshot(d: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(d)): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+def test_bad_video_path_leaves_an_existing_run_dir_byte_identical(tmp_path):
+    """`--video` that is a directory or under a file: one line, exit 2, the old run untouched."""
+    sc, out = _gt_scenario(tmp_path), tmp_path / "r"
+    res = runner.invoke(app, ["run", str(sc), "--out", str(out), "--no-render"])
+    assert res.exit_code == 0, res.output
+    assert json.loads((out / "run.json").read_text())["complete"]
+    before = _snapshot(out)
+    assert (out / "ticks.jsonl").stat().st_size > 0
+    blocker = tmp_path / "blocker"
+    blocker.write_text("keep me")
+    (out / "video_dir.mp4").mkdir()
+    before_dirs = sorted(p.name for p in out.iterdir())
+    for video, needle in [(out / "video_dir.mp4", "is a directory"), (blocker / "a.mp4", "video's directory")]:
+        res = runner.invoke(app, ["run", str(sc), "--out", str(out), "--no-render", "--video", str(video)])
+        assert res.exit_code == 2, res.output
+        text = res.output.strip()
+        assert len(text.splitlines()) == 1 and needle in text and "Traceback" not in text, text
+        assert _snapshot(out) == before
+        assert sorted(p.name for p in out.iterdir()) == before_dirs
+    assert blocker.read_text() == "keep me"
+
+
+def test_bad_rerun_path_leaves_an_existing_run_dir_byte_identical(tmp_path):
+    sc, out = _gt_scenario(tmp_path), tmp_path / "r"
+    assert runner.invoke(app, ["run", str(sc), "--out", str(out), "--no-render"]).exit_code == 0
+    before = _snapshot(out)
+    (out / "rec.rrd").mkdir()
+    res = runner.invoke(app, ["run", str(sc), "--out", str(out), "--no-render", "--rerun", str(out / "rec.rrd"),
+                              "--video", str(out / "annotated.mp4")])
+    assert res.exit_code == 2 and len(res.output.strip().splitlines()) == 1, res.output
+    assert _snapshot(out) == before and not (out / "annotated.mp4").exists()
+
+
+@pytest.mark.parametrize(
+    ("body", "needle"),
+    [
+        ("perception:\n  tracker:\n    max_lost: 1.0\n", ":4: perception.tracker.max_lost: unknown field"),
+        ("perception:\n  detector: {noise: {miss_rat: 0.1}}\n", ":3: perception.detector.noise.miss_rat: unknown field"),
+        ("perception:\n  estimator: {motion_modl: cv}\n", ":3: perception.estimator.motion_modl: unknown field"),
+        ("intent:\n  horizon: soon\n", ":3: intent.horizon: Input should be a valid number"),
+        ("expect:\n  - alert: {actor: nobody, level_at_least: HUGE}\n", ":3: expect[0].alert.level_at_least"),
+    ],
+)
+def test_validate_prints_one_line_per_file_and_exits_2(tmp_path, body, needle):
+    deep = tmp_path / ("a_rather_long_directory_name_" * 6)  # the line is far wider than 80 columns
+    deep.mkdir()
+    bad = deep / "bad.yaml"
+    bad.write_text("name: x\n" + body)
+    res = runner.invoke(app, ["validate", str(PED), str(bad)])
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 2 and "Traceback" not in res.output, res.output
+    assert lines[0].startswith("ok ") and lines[1].startswith("bad ")
+    assert f"{bad}{needle}" in lines[1], lines[1]

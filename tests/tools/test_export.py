@@ -47,7 +47,9 @@ def expected(gt) -> list[int]:
 
 @pytest.fixture(scope="module")
 def short():
-    return load_scenario(SCENARIO).model_copy(update={"duration": DURATION})
+    sc = load_scenario(SCENARIO)
+    det = sc.perception.detector.model_copy(update={"kind": "gt"})  # the default ONNX model may be absent
+    return sc.model_copy(update={"duration": DURATION, "perception": sc.perception.model_copy(update={"detector": det})})
 
 
 @pytest.fixture(scope="module")
@@ -91,6 +93,37 @@ def test_yolo_round_trip(exported, short) -> None:
         xyxy = np.column_stack([cx - bw / 2, cy - bh / 2, cx + bw / 2, cy + bh / 2])
         np.testing.assert_allclose(xyxy, gt.visible[idx], atol=TOL_PX)
         assert np.all((rows[:, 1:] >= 0) & (rows[:, 1:] <= 1))
+
+
+def test_yolo_attributes_sidecar_round_trip(exported) -> None:
+    """attributes/{stem}.json: item k = line k of labels/{stem}.txt, with occlusion, truncation,
+    range and actor id as COCO has them; the label files stay 5 columns."""
+    d, _, frames = exported["yolo"]
+    data = yaml.safe_load((d / "data.yaml").read_text())
+    assert data["attributes"] == "attributes"
+    kept = kept_frames(frames)
+    assert sorted(p.name for p in (d / data["attributes"]).iterdir()) == [f"urban_mix_{f:06d}.json" for f in kept]
+    coco = json.loads((exported["coco"][0] / "annotations.json").read_text())
+    coco_by_frame = {im["frame_index"]: [a for a in coco["annotations"] if a["image_id"] == im["id"]]
+                     for im in coco["images"]}
+    n_occluded = 0
+    for f in kept:
+        gt = frames[f][0]
+        idx = expected(gt)
+        attrs = json.loads((d / "attributes" / f"urban_mix_{f:06d}.json").read_text())
+        lines = (d / "labels" / f"urban_mix_{f:06d}.txt").read_text().splitlines()
+        assert len(attrs) == len(lines) == len(idx) and all(len(line.split()) == 5 for line in lines)
+        assert [a["actor_id"] for a in attrs] == gt.actor_id[idx].tolist()
+        assert [a["class_id"] for a in attrs] == [int(line.split()[0]) for line in lines]
+        assert [a["name"] for a in attrs] == [gt.name[i] for i in idx]
+        np.testing.assert_allclose([a["occlusion"] for a in attrs], 1 - gt.visible_fraction[idx], atol=1e-3)
+        np.testing.assert_allclose([a["truncation"] for a in attrs], gt.truncation[idx], atol=1e-3)
+        np.testing.assert_allclose([a["range_m"] for a in attrs], gt.range[idx], atol=1e-3)
+        coco_anns = coco_by_frame[f]  # same run, same scenario and seed: the same objects as COCO's
+        assert [(a["actor_id"], a["occlusion"], a["truncation"]) for a in attrs] == [
+            (c["track_id"], c["occlusion"], c["truncation"]) for c in coco_anns]
+        n_occluded += sum(a["occlusion"] > 0.05 for a in attrs)
+    assert n_occluded > 0  # the attributes are not all zero
 
 
 def test_coco_round_trip(exported) -> None:

@@ -162,3 +162,83 @@ def test_cli_bad_input_exit_code_2_one_line(
         err = capsys.readouterr().err
         assert err.startswith("error: ") and needle in err
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+# ------------------------------------------------- frame rate from seqinfo.ini
+def _gap_sequence(seq_dir: Path, frame_rate: int | None, det_subdir: str = "det") -> Path:
+    """A standard MOTChallenge layout: one pedestrian seen in frames 1-5 and 11-15, 20 frames.
+
+    ``<seq>/seqinfo.ini`` (no file when ``frame_rate`` is None) and ``<seq>/<det_subdir>/det.txt``.
+    The 5-frame gap outlives ``max_lost_s`` (0.3 s) at 10 fps (3 frames) but not at
+    25 fps (8 frames): the rate the tracker really used shows in the ids.
+    """
+    det_rows = [(f, -1, 100.0, 200.0, 40.0, 90.0, 0.9, -1, -1, -1) for f in (*range(1, 6), *range(11, 16))]
+    det_path = seq_dir / det_subdir / "det.txt"
+    write_mot(det_path, MotRecords.from_array(np.array(det_rows)))
+    if frame_rate is not None:
+        (seq_dir / "seqinfo.ini").write_text(
+            f"[Sequence]\nname={seq_dir.name}\nimDir=img1\nframeRate={frame_rate}\nseqLength=20\n"
+            "imWidth=640\nimHeight=480\nimExt=.jpg\n"
+        )
+    return det_path
+
+
+def _cli_track(*args: str):
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    return CliRunner().invoke(app, ["track", *args])
+
+
+def test_track_cli_reads_frame_rate_from_seqinfo(tmp_path: Path) -> None:
+    det = _gap_sequence(tmp_path / "SEQ-25", 25)
+    out = tmp_path / "out25.txt"
+    res = _cli_track("--det", str(det), "--out", str(out))  # no --frame-rate
+    assert res.exit_code == 0, res.output
+    assert f"frame rate: 25 fps (from {(tmp_path / 'SEQ-25' / 'seqinfo.ini').resolve()})" in res.output
+    assert "over 20 frames" in res.output  # seqLength, trailing empty frames included
+    tracks = read_mot(out)
+    assert set(tracks.track_id) == {1}  # recovered after the gap: 8-frame budget at 25 fps
+
+    det10 = _gap_sequence(tmp_path / "SEQ-10", 10)
+    res = _cli_track("--det", str(det10), "--out", str(tmp_path / "out10.txt"))
+    assert res.exit_code == 0, res.output
+    assert "frame rate: 10 fps (from " in res.output
+    assert set(read_mot(tmp_path / "out10.txt").track_id) == {1, 2}  # 3-frame budget: a new id
+
+    # --frame-rate wins over seqinfo.ini, with a warning.
+    res = _cli_track("--det", str(det), "--out", str(tmp_path / "o.txt"), "--frame-rate", "10")
+    assert res.exit_code == 0, res.output
+    assert "frame rate: 10 fps (from --frame-rate)" in res.output and "overrides frameRate=25" in res.output
+    assert set(read_mot(tmp_path / "o.txt").track_id) == {1, 2}
+
+
+def test_track_seqinfo_beside_det_and_default_rate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    det = _gap_sequence(tmp_path / "flat", 25, det_subdir=".")  # det.txt next to seqinfo.ini
+    assert track_command(det, tmp_path / "a.txt") == 0
+    assert "frame rate: 25 fps (from " in capsys.readouterr().out
+
+    bare = _gap_sequence(tmp_path / "bare", None)  # no seqinfo.ini anywhere near
+    assert track_command(bare, tmp_path / "b.txt") == 0
+    captured = capsys.readouterr()
+    assert "frame rate: 30 fps (default)" in captured.out
+    warning = captured.err.strip().splitlines()
+    assert len(warning) == 1 and warning[0].startswith("warning: ") and "no seqinfo.ini" in warning[0]
+    assert "--frame-rate" in warning[0]
+    summary = run_tracker_on_mot(bare, tmp_path / "c.txt")
+    assert (summary["frame_rate"], summary["frame_rate_source"], summary["frames"]) == (30.0, "default", 15)
+
+
+def test_track_bad_seqinfo_is_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    det = _gap_sequence(tmp_path / "SEQ", 25)
+    ini = tmp_path / "SEQ" / "seqinfo.ini"
+    ini.write_text(ini.read_text().replace("frameRate=25", "frameRate=fast"))
+    assert track_command(det, tmp_path / "o.txt") == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "seqinfo.ini: frameRate='fast'" in err
+    assert len(err.strip().splitlines()) == 1
+    ini.write_text("[Sequence]\nname=SEQ\n")  # no frameRate: default rate, with a warning
+    assert track_command(det, tmp_path / "o.txt") == 0
+    captured = capsys.readouterr()
+    assert "has no frameRate" in captured.err and "30 fps (default)" in captured.out

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import shutil
 from html.parser import HTMLParser
@@ -121,3 +122,44 @@ def test_suite_report_rows_and_relative_links(run_dir: Path, tmp_path: Path) -> 
     for d in names.values():
         assert (suite / d / REPORT_FILE).is_file()  # each run's report built too
     assert not [v for _, _, v in _parse(path).refs if v.startswith(("http", "/", "file:"))]
+
+
+def test_key_frames_come_from_annotated_mp4_without_saved_frames(tmp_path: Path) -> None:
+    """A rendered run with --video and no frames/: the strip is the video's key frames (JPEG)."""
+    from tools.demo import key_frame_reason
+    from tools.video import VideoSink
+
+    sc = load_scenario(SCENARIO)
+    det = sc.perception.detector.model_copy(update={"kind": "gt"})  # the default ONNX model may be absent
+    sc = sc.model_copy(update={"duration": 2.5, "perception": sc.perception.model_copy(update={"detector": det})})
+    out = tmp_path / "run"
+    video = VideoSink(out / "annotated.mp4", fps=sc.camera.rate)
+    Runner(sc, sinks=[RunDirWriter(out, sc, str(SCENARIO)), video], render=True).run()
+    records = [json.loads(line) for line in (out / "ticks.jsonl").read_text().splitlines()]
+    assert video.frames_written == len(records) > 10
+    seen: set[str] = set()
+    want = [k for k, r in enumerate(records)
+            if key_frame_reason(k, len(records), {a["kind"] for a in r["alerts"]}, bool(r["collisions"]), seen)]
+    text = build_report(out).read_text(encoding="utf-8")
+    assert "no key frames" not in text
+    strip = text.split(">Key frames<", 1)[1].split("<h2>", 1)[0]
+    imgs = [v for tag, k, v in _parse_text(strip).refs if tag == "img"]
+    assert len(imgs) == len(want) >= 3 and all(v.startswith("data:image/jpeg;base64,") for v in imgs)
+    assert f"annotated.mp4 frame {records[want[0]]['frame']} — t = {records[want[0]]['t']:.2f} s" in strip
+    assert "50% of the run" in strip
+    first = base64.b64decode(imgs[0].split(",", 1)[1])
+    img = cv2.imdecode(np.frombuffer(first, np.uint8), cv2.IMREAD_COLOR)
+    assert img.shape == (sc.camera.height, sc.camera.width, 3)
+
+
+def test_run_without_frames_or_video_says_so(run_dir: Path, tmp_path: Path) -> None:
+    bare = tmp_path / "bare"
+    shutil.copytree(run_dir, bare)
+    shutil.rmtree(bare / "frames")
+    assert "no key frames" in build_report(bare).read_text(encoding="utf-8")
+
+
+def _parse_text(text: str) -> _Refs:
+    p = _Refs()
+    p.feed(text)
+    return p

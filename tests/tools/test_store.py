@@ -219,3 +219,66 @@ def test_unwritable_path_raises(tmp_path):
         SqliteStore(blocker / "sub" / "runs.sqlite", load_scenario(PED))
     with pytest.raises(StoreError, match="is a directory"):
         SqliteStore(tmp_path, load_scenario(PED))
+
+
+def test_assessments_table_matches_the_run_directory(db):
+    """One assessments row per reported track per frame: label, behaviour, risk, TTC, in-path, reason."""
+    from intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES
+
+    path, run_dir = db
+    ticks = [json.loads(line) for line in (run_dir / "ticks.jsonl").read_text().splitlines()]
+    conn = sqlite3.connect(path)
+    cols = [r[1] for r in conn.execute("PRAGMA table_info(assessments)")]
+    assert cols == ["run_id", "frame", "t", "track_id", "label", "behaviour", "risk", "ttc", "in_path", "reason"]
+    assert not {"label", "behaviour", "risk", "in_path"} & {r[1] for r in conn.execute("PRAGMA table_info(tracks)")}
+    assert count(conn, "assessments", 1) == count(conn, "tracks", 1) == sum(len(t["tracks"]["track_id"]) for t in ticks)
+    rows = conn.execute("SELECT frame, track_id, label, behaviour, risk, ttc, in_path, reason FROM assessments "
+                        "WHERE run_id = 1 ORDER BY frame, rowid").fetchall()
+    want = [(t["frame"], tid, LABEL_NAMES[a["label"][i]], BEHAVIOUR_NAMES[a["behaviour"][i]], a["risk"][i],
+             a["ttc"][i], int(a["in_path"][i]))
+            for t in ticks if (a := t["assessments"]) for i, tid in enumerate(t["tracks"]["track_id"])]
+    assert [r[:5] for r in rows] == [w[:5] for w in want]
+    assert [min(r[5], 1e9) for r in rows] == pytest.approx([w[5] for w in want], abs=1e-3)
+    assert [r[6] for r in rows] == [w[6] for w in want]
+    assert all(r[7] and r[7].startswith(("SAFE", "LOW", "MEDIUM", "HIGH", "CRITICAL")) for r in rows)
+    crit = conn.execute("SELECT reason FROM assessments WHERE run_id = 1 AND risk = 4 LIMIT 1").fetchone()[0]
+    assert crit.startswith("CRITICAL: ") and "range" in crit
+    # every alert's track has an assessment at that frame with the alert's reason (same words, same numbers)
+    for fr, tid, reason in conn.execute("SELECT frame, track_id, reason FROM alerts WHERE run_id = 1 AND level > 0"):
+        got = conn.execute("SELECT reason FROM assessments WHERE run_id = 1 AND frame = ? AND track_id = ?",
+                           (fr, tid)).fetchone()
+        assert got is not None and got[0].split(":", 1)[1] == reason.split(":", 1)[1]
+    names = {r[1] for r in conn.execute("PRAGMA index_list(assessments)")}
+    assert {"assessments_track", "assessments_risk"} <= names
+    for sql, index in [
+        ("SELECT * FROM assessments WHERE run_id = 1 AND track_id = 1 ORDER BY frame", "assessments_track"),
+        ("SELECT * FROM assessments WHERE run_id = 1 AND risk >= 3", "assessments_risk"),
+    ]:
+        plan = " ".join(str(r) for r in conn.execute("EXPLAIN QUERY PLAN " + sql))
+        assert index in plan, (sql, plan)
+
+
+def test_tracks_report_uses_assessments(db, capsys):
+    rows = json.loads(run_query(capsys, db[0], "tracks", 1, "json"))
+    worst = max(rows, key=lambda r: ["SAFE", "LOW", "MEDIUM", "HIGH", "CRITICAL"].index(r["max_risk"]))
+    assert worst["max_risk"] == "CRITICAL" and worst["reason"].startswith("CRITICAL: ")
+
+
+def test_an_old_schema_version_is_one_line_and_untouched(tmp_path, capsys):
+    """A version-1 store (label/risk in tracks, no assessments) is refused by the sink and by query."""
+    old = tmp_path / "v1.sqlite"
+    with sqlite3.connect(old) as c:
+        c.execute("CREATE TABLE runs (id INTEGER PRIMARY KEY, name TEXT)")
+        c.execute("CREATE TABLE tracks (run_id INTEGER, frame INTEGER, label TEXT, risk INTEGER)")
+        c.execute(f"PRAGMA application_id={APPLICATION_ID}")
+        c.execute("PRAGMA user_version=1")
+    before = old.read_bytes()
+    with pytest.raises(StoreError) as e:
+        SqliteStore(old, load_scenario(PED))
+    msg = str(e.value)
+    assert "schema version 1" in msg and f"reads only {SCHEMA_VERSION}" in msg and "\n" not in msg
+    assert query_command(old, "summary", None, "table") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "schema version 1" in err
+    assert old.read_bytes() == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["v1.sqlite"]

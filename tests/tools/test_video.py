@@ -25,9 +25,15 @@ ROOT = Path(__file__).resolve().parents[2]
 Collect = RecordCollector
 
 
+def gt_detector(sc):
+    """``sc`` with the ground-truth detector (the default, the shipped ONNX model, may be absent)."""
+    det = sc.perception.detector.model_copy(update={"kind": "gt"})
+    return sc.model_copy(update={"perception": sc.perception.model_copy(update={"detector": det})})
+
+
 def short_scenario(duration: float = 2.0):
     sc = load_scenario(ROOT / "scenarios" / "ped_crossing_nearside.yaml")
-    return sc.model_copy(update={"duration": duration})
+    return gt_detector(sc.model_copy(update={"duration": duration}))
 
 
 @pytest.fixture(scope="module")
@@ -146,3 +152,53 @@ def test_unwritable_path_is_one_line_output_error(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="video's directory"):
         VideoSink(tmp_path / "file" / "a.mp4", fps=10).on_start({})
+
+
+def test_bad_paths_fail_when_the_sink_is_made(tmp_path):
+    """Checked in __init__ (before any sink starts): a directory, a parent that is a file."""
+    from tools.rundir import OutputError
+
+    (tmp_path / "file").write_text("keep")
+    (tmp_path / "dir.mp4").mkdir()
+    for path, needle in [(tmp_path / "file" / "a.mp4", "video's directory"), (tmp_path / "dir.mp4", "is a directory")]:
+        with pytest.raises(OutputError, match=needle) as e:
+            VideoSink(path, fps=10)
+        assert "\n" not in str(e.value) and str(path) in str(e.value)
+    assert (tmp_path / "file").read_text() == "keep" and not any((tmp_path / "dir.mp4").iterdir())
+    VideoSink(tmp_path / "new" / "ok.mp4", fps=10)  # a good path: parent made, no file, no probe left
+    assert list((tmp_path / "new").iterdir()) == []
+
+
+def test_missing_encoder_is_an_output_error_at_construction(tmp_path, monkeypatch):
+    from tools.rundir import OutputError
+
+    monkeypatch.setattr(video, "_WORKING_FOURCC", None)
+    monkeypatch.setattr(video, "FOURCCS", ("zzzz",))
+    with pytest.raises(OutputError, match="cannot write an MP4") as e:
+        VideoSink(tmp_path / "a.mp4", fps=10)
+    assert str(tmp_path / "a.mp4") in str(e.value) and list(tmp_path.iterdir()) == []
+
+
+def test_key_frames_are_the_video_overlay(rendered, tmp_path):
+    """tools.demo.KeyFrameSink draws with the video's Overlay: its PNGs equal VideoSink.annotate."""
+    from tools.demo import KEY_FRAMES_INDEX, KeyFrameSink
+
+    _, _, _, records, _ = rendered
+    keys = KeyFrameSink(tmp_path / "frames", len(records))
+    ref = VideoSink(tmp_path / "ref.mp4", fps=10)
+    keys.on_start({})
+    drawn = {}
+    for r in records:
+        keys.on_tick(r)
+        drawn[r.frame_index] = ref.annotate(r)
+    keys.on_end({})
+    assert len(keys.saved) >= 3
+    for p in keys.saved:
+        k = int(p.stem.split("_")[1])
+        png = cv2.cvtColor(cv2.imread(str(p)), cv2.COLOR_BGR2RGB)
+        assert np.array_equal(png, drawn[k]), p.name
+    import json
+
+    reasons = json.loads((tmp_path / "frames" / KEY_FRAMES_INDEX).read_text())
+    assert sorted(reasons) == sorted(p.name for p in keys.saved)
+    assert any("50% of the run" in v for v in reasons.values())

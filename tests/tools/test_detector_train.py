@@ -1,0 +1,113 @@
+"""The detector's training side: targets and the exported decoder agree; a real training run
+exports an ONNX model that ``OnnxDetector`` runs unchanged; AP and recall-at-precision on paper cases."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+
+from perception.detectors.onnx_detector import OnnxDetector  # noqa: E402
+from tools.detector.data import STRIDE, encode  # noqa: E402
+from tools.detector.evaluate import evaluate_split, recall_at_precision  # noqa: E402
+from tools.detector.model import CenterDet, Decoded  # noqa: E402
+from tools.detector.train import TrainConfig, focal_loss, train  # noqa: E402
+
+
+class _Oracle(torch.nn.Module):
+    """Stands in for ``CenterDet``: returns fixed heat logits and regression maps."""
+
+    num_classes = 8
+
+    def __init__(self, heat: torch.Tensor, reg: torch.Tensor) -> None:
+        super().__init__()
+        self.heat, self.reg = heat, reg
+
+    def forward(self, x):
+        return self.heat, self.reg
+
+
+def test_decoder_inverts_the_targets():
+    hw = (128, 192)
+    boxes = np.array([[10.3, 20.7, 18.9, 44.1], [100.0, 50.0, 160.5, 90.25], [60.2, 60.2, 63.9, 66.0]], np.float32)
+    classes = np.array([0, 4, 7])
+    t = encode(boxes, classes, np.ones(3, bool), hw, 8)
+    gh, gw = hw[0] // STRIDE, hw[1] // STRIDE
+    heat = torch.full((1, 8, gh, gw), -10.0)
+    reg = torch.zeros(1, 4, gh * gw)
+    for k in range(3):
+        i = int(t.index[k])
+        heat[0, classes[k], i // gw, i % gw] = 10.0
+        off = np.clip(t.reg[k, :2], 1e-6, 1 - 1e-6)
+        reg[0, :2, i] = torch.from_numpy(np.log(off / (1 - off)))
+        reg[0, 2:, i] = torch.from_numpy(t.reg[k, 2:])  # log size in cells; the decoder gives px
+    out = Decoded(_Oracle(heat, reg.reshape(1, 4, gh, gw)))(torch.zeros(1, 3, *hw))[0].numpy()
+    assert out.shape == (12, gh * gw)
+    keep = out[4:].max(axis=0) > 0.5
+    got = out[:4, keep].T
+    cxcywh = np.stack([(boxes[:, 0] + boxes[:, 2]) / 2, (boxes[:, 1] + boxes[:, 3]) / 2,
+                       boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]], axis=1)
+    np.testing.assert_allclose(got[np.argsort(got[:, 0])], cxcywh[np.argsort(cxcywh[:, 0])], atol=1e-3)
+    assert sorted(out[4:, keep].argmax(axis=0).tolist()) == sorted(classes.tolist())
+
+
+def test_ignored_objects_are_masked_not_taught():
+    boxes = np.array([[10, 10, 30, 40], [60, 60, 70, 64]], np.float32)
+    t = encode(boxes, np.array([1, 2]), np.array([True, False]), (128, 128), 8)
+    assert t.heat[1].max() == 1.0 and t.heat[2].max() == 0.0
+    assert t.mask[15, 15] == 0.0 and t.mask[5, 5] == 1.0
+    assert t.valid.sum() == 1
+    logits = torch.full((1, 8, 32, 32), -3.0)
+    base = focal_loss(logits, torch.from_numpy(t.heat)[None], torch.from_numpy(t.mask)[None, None])
+    logits[0, 2, 15, 15] = 5.0  # a confident "detection" inside the ignored box costs nothing
+    same = focal_loss(logits, torch.from_numpy(t.heat)[None], torch.from_numpy(t.mask)[None, None])
+    assert float(same) == pytest.approx(float(base))
+
+
+def test_recall_at_precision_and_ap_on_paper():
+    # ranked: TP TP FP TP FP, 4 objects: precision 1, 1, .67, .75, .6 -> at p >= .95 recall is 2/4
+    score = np.array([0.9, 0.8, 0.7, 0.6, 0.5])
+    tp = np.array([True, True, False, True, False])
+    assert recall_at_precision(score, tp, 4, 0.95) == pytest.approx(0.5)
+    assert recall_at_precision(score, tp, 4, 0.7) == pytest.approx(0.75)
+
+
+def test_evaluate_split_counts_by_range_and_visibility():
+    from tools.detector.data import Split
+
+    gt = np.array([[10, 10, 50, 90], [100, 10, 140, 90], [200, 10, 240, 90]], np.float32)
+    split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 4])],
+                  visible=[np.array([1.0, 0.3, 1.0], np.float32)], ranges=[np.array([20.0, 20.0, 70.0])],
+                  names=["a.png"])
+
+    def detect(img):  # finds the evaluated one, the occluded one (don't care) and a false one
+        xyxy = np.array([[10, 10, 50, 90], [100, 10, 140, 90], [260, 10, 300, 90]], np.float64)
+        return xyxy, np.array([0.9, 0.8, 0.7]), np.array([0, 0, 0])
+
+    m = evaluate_split(split, detect)
+    assert m["gt"] == 1 and m["tp"] == 1 and m["fp"] == 1  # the far car is don't care (70 m)
+    assert m["recall"] == 1.0 and m["precision"] == 0.5 and m["ap50"] == 1.0
+
+
+def test_a_real_training_run_exports_a_model_the_detector_runs(tmp_path):
+    from tools.export import export_generated
+
+    gen = tmp_path / "gen.yaml"
+    gen.write_text("generator:\n  duration: 1.0\n  splits:\n    train: {seeds: [0, 2]}\n    val: {seeds: [900, 901]}\n")
+    export_generated(gen, "coco", 1, tmp_path / "ds")
+    doc = json.loads((tmp_path / "ds" / "train" / "annotations.json").read_text())
+    assert len(doc["images"]) == 4 and doc["annotations"]
+    out = tmp_path / "m.onnx"
+    result = train(tmp_path / "ds", out, TrainConfig(epochs=2, batch=2, warmup_steps=1, eval_every=0))
+    assert result["history"][-1]["loss"] < result["history"][0]["loss"] * 1.5
+    assert "val" in result["history"][-1]
+    det = OnnxDetector(out)
+    assert det.layout == "v8" and det.num_classes == 8 and det.input_hw == (384, 640)
+    assert det.names[0] == "pedestrian" and det.class_map is not None
+    d = det.detect(np.zeros((360, 640, 3), np.uint8))
+    assert d.xyxy.shape[1] == 4
+    net = CenterDet()
+    assert sum(p.numel() for p in net.parameters()) < 2_000_000

@@ -1,0 +1,244 @@
+"""Scenario sweeps: expansion and ids, a real pool run with failures, a real kill and
+resume, the store, Ray, CLI errors, and the bench JSON structure (no timing asserted)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from tools.cli import app
+from tools.sweep import SweepError, is_complete, load_sweep, run_sweep, variant_id
+
+ROOT = Path(__file__).resolve().parents[2]
+CAR = ROOT / "scenarios" / "stationary_car.yaml"
+PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
+cli = CliRunner()
+
+
+def write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+def short_sweep(tmp_path: Path, grid: str, name: str = "s.yaml", duration: float = 2.0) -> Path:
+    return write(tmp_path / name, f"scenario: {CAR}\nset: {{duration: {duration}}}\ngrid:\n{grid}")
+
+
+def db_runs(db: Path) -> list[tuple]:
+    with sqlite3.connect(db) as conn:
+        return conn.execute("SELECT run_dir, complete FROM runs ORDER BY run_dir").fetchall()
+
+
+# --------------------------------------------------------------------------- expansion
+
+
+def test_grid_times_samples_with_ids_independent_of_order(tmp_path):
+    a = write(tmp_path / "a.yaml", f"""scenario: {CAR}
+grid:
+  ego.speed: [8, 10.5]
+  ego.aeb: [false, true]
+samples:
+  n: 3
+  seed: 5
+  params:
+    actors[target].impact_offset: {{uniform: [-0.5, 0.5]}}
+    seed: {{randint: [0, 99]}}
+    perception.detector.noise.miss_rate: {{choice: [0.0, 0.1]}}
+""")
+    b = write(tmp_path / "b.yaml", f"""scenario: {CAR}
+samples:
+  seed: 5
+  params:
+    perception.detector.noise.miss_rate: {{choice: [0.0, 0.1]}}
+    seed: {{randint: [0, 99]}}
+    actors[target].impact_offset: {{uniform: [-0.5, 0.5]}}
+  n: 3
+grid:
+  ego.aeb: [true, false]
+  ego.speed: [10.5, 8.0]
+""")
+    _, _, va = load_sweep(a)
+    _, _, vb = load_sweep(b)
+    assert len(va) == 2 * 2 * 3 == len({v.id for v in va})
+    assert {v.id: v.params for v in va} == {v.id: v.params for v in vb}
+    for v in va:
+        assert v.id == variant_id(dict(reversed(list(v.params.items()))))
+        assert v.scenario.ego.speed == v.params["ego.speed"] and v.scenario.ego.aeb == v.params["ego.aeb"]
+        assert v.scenario.seed == v.params["seed"]
+        assert v.scenario.actors[0].start.offset == v.params["actors[target].impact_offset"]
+        assert v.scenario.perception.detector.noise == {"miss_rate": v.params["perception.detector.noise.miss_rate"]}
+        assert v.id.endswith(variant_id(v.params)[-8:]) and "aeb-" in v.id
+    # the same draws combine with every grid point
+    assert len({json.dumps(v.params["actors[target].impact_offset"]) for v in va}) == 3
+
+
+def test_shipped_sweep_files_expand():
+    sizes = {p.stem: len(load_sweep(p)[2]) for p in sorted((ROOT / "scenarios" / "sweeps").glob("*.yaml"))}
+    assert sizes["aeb_stationary_car"] == 16 and sizes["ped_crossing_random"] == 24
+
+
+def test_item_selectors_and_impact_offset_of_a_crossing_pedestrian(tmp_path):
+    sw = write(tmp_path / "p.yaml", f"""scenario: {PED}
+grid:
+  actors[ped1].script.0.do.speed: [1.4]
+  actors.0.heading: [90]
+  actors[0].impact_offset: [-3.0, 0.0, 3.0]
+""")
+    _, _, variants = load_sweep(sw)
+    ys = [v.scenario.actors[0].start.y for v in variants]
+    assert ys[0] < ys[1] < ys[2] and ys[2] - ys[1] == pytest.approx(3.0)
+    from sim.runner import Runner
+
+    hits = [bool(Runner(v.scenario, render=False).run().collisions) for v in variants]
+    assert hits == [False, True, False]  # not yet there / hit centrally / already past
+
+
+@pytest.mark.parametrize("text, needles", [
+    ("grid:\n  ego.sped: [1]\n", ["grid: ego.sped", "unknown field 'sped'"]),
+    ("grid:\n  actors[nobody].speed: [1]\n", ["actors[nobody].speed", "no item with id 'nobody'", "target"]),
+    ("grid:\n  ego.speed: [10, 99]\n", ["grid: ego.speed = 99", "ego.speed", "less than or equal to 60"]),
+    ("grid:\n  ego..speed: [1]\n", ["malformed parameter path"]),
+    ("grdi:\n  ego.speed: [1]\n", ["s.yaml:", "grdi: unknown field"]),
+    ("samples: {n: 2, params: {ego.speed: {uniform: [5]}}}\n", ["s.yaml:2", "samples.params"]),
+])
+def test_bad_sweep_is_one_clear_line(tmp_path, text, needles):
+    sw = write(tmp_path / "s.yaml", f"scenario: {CAR}\n{text}")
+    with pytest.raises(SweepError) as e:
+        load_sweep(sw)
+    msg = str(e.value)
+    assert "\n" not in msg and str(sw) in msg and all(n in msg for n in needles), msg
+
+
+# --------------------------------------------------------------------------- running
+
+
+def test_pool_sweep_with_failing_variants_store_summary_and_report(tmp_path):
+    # miss_rate 1.5 passes the scenario model but the gt detector refuses it at run time
+    sw = short_sweep(tmp_path, "  ego.speed: [8, 12]\n  perception.detector.noise.miss_rate: [0.0, 1.5]\n")
+    out = tmp_path / "out"
+    seen = []
+    s = run_sweep(sw, out, workers=2, progress=seen.append)
+    assert s["counts"] == {"variants": 4, "done": 2, "failed": 2, "ran": 4, "skipped": 0}
+    assert len(seen) == 4 and s["backend"] == "pool"
+    on_disk = json.loads((out / "summary.json").read_text())
+    assert on_disk["counts"] == s["counts"] and on_disk["totals"]["closed_loop"]["runs"] == 2
+    for vid, v in on_disk["variants"].items():
+        bad = v["params"]["perception.detector.noise.miss_rate"] == 1.5
+        assert v["status"] == ("failed" if bad else "done")
+        if bad:
+            assert "miss_rate" in v["error"] and "\n" not in v["error"] and on_disk["failed"][vid] == v["error"]
+        else:
+            assert v["metrics"]["closed_loop.collision"] is False and v["summary"]["frames"] == 20
+            assert (out / v["dir"] / "scenario.yaml").is_file()
+    done_dirs = sorted(str(out / "runs" / k) for k, v in on_disk["variants"].items() if v["status"] == "done")
+    assert db_runs(out / "sweep.sqlite") == [(d, 1) for d in done_dirs]  # one run per variant
+    assert (out / "report.html").is_file() and list((out / "plots").glob("*.png"))
+    html = (out / "report.html").read_text()
+    assert "metrics vs ego.speed" in html and html.count("failed: ") == 2
+    # the report command recognises a sweep directory
+    (out / "report.html").unlink()
+    assert cli.invoke(app, ["report", str(out)]).exit_code == 0 and (out / "report.html").is_file()
+    # re-run: the done variants are skipped, only the failed ones run again
+    again = run_sweep(sw, out, workers=1, report=False)
+    assert again["counts"] == {"variants": 4, "done": 2, "failed": 2, "ran": 2, "skipped": 2}
+    assert db_runs(out / "sweep.sqlite") == [(d, 1) for d in done_dirs]
+
+
+def test_killed_sweep_reruns_only_the_missing_variants(tmp_path):
+    exe = Path(sys.executable).parent / "lookahead"
+    if not exe.exists():
+        pytest.skip("console script not installed")
+    sw = short_sweep(tmp_path, "  ego.speed: [6, 7, 8, 9, 10, 11, 12, 13]\n  ego.aeb: [true]\n", duration=3.0)
+    out = tmp_path / "out"
+    _, _, variants = load_sweep(sw)
+    proc = subprocess.Popen([str(exe), "sweep", str(sw), "--out", str(out), "--workers", "2", "--no-report"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 90
+        while time.monotonic() < deadline and proc.poll() is None:
+            if sum(is_complete(out / "runs" / v.id, v.scenario) for v in variants) >= 2:
+                break
+            time.sleep(0.05)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)  # the sweep and its workers, mid-run
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    before = {v.id: (out / "runs" / v.id / "metrics.json").stat().st_mtime_ns
+              for v in variants if is_complete(out / "runs" / v.id, v.scenario)}
+    assert 2 <= len(before) < len(variants)
+    s = run_sweep(sw, out, workers=1, report=False)
+    assert s["counts"] == {"variants": 8, "done": 8, "failed": 0, "ran": 8 - len(before), "skipped": len(before)}
+    assert {k for k, v in s["variants"].items() if v["skipped"]} == set(before)
+    for vid, mtime in before.items():
+        assert (out / "runs" / vid / "metrics.json").stat().st_mtime_ns == mtime  # not run again
+    rows = db_runs(out / "sweep.sqlite")  # the killed, half-written runs are gone from the store
+    assert rows == sorted((str(out / "runs" / v.id), 1) for v in variants)
+
+
+def test_sweep_on_a_local_ray_instance(tmp_path):
+    ray = pytest.importorskip("ray")
+    try:
+        ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
+    except Exception as e:  # pragma: no cover - sandboxes without shared memory
+        pytest.skip(f"ray cannot start here: {e}")
+    try:
+        sw = short_sweep(tmp_path, "  ego.speed: [8, 10, 12]\n", duration=1.5)
+        s = run_sweep(sw, tmp_path / "out", ray_address="auto", report=False)
+    finally:
+        ray.shutdown()
+    assert s["backend"] == "ray" and s["counts"]["done"] == 3 and s["counts"]["failed"] == 0
+    assert len(db_runs(tmp_path / "out" / "sweep.sqlite")) == 3
+
+
+def test_cli_bad_input_is_one_line_and_exit_2(tmp_path):
+    bad_field = short_sweep(tmp_path, "  ego.speed: [8]\nworkers: 3\n", name="bad.yaml")
+    bad_path = short_sweep(tmp_path, "  ego.speeed: [8]\n", name="path.yaml")
+    for args, needle in [
+        (["sweep", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "o")], "no such sweep file"),
+        (["sweep", str(bad_field), "--out", str(tmp_path / "o")], "workers: unknown field"),
+        (["sweep", str(bad_path), "--out", str(tmp_path / "o")], "unknown field 'speeed'"),
+    ]:
+        res = cli.invoke(app, args)
+        out = res.output.strip()
+        assert res.exit_code == 2 and needle in out and "Traceback" not in out, out
+        assert len(out.splitlines()) == 1, out
+    assert not (tmp_path / "o").exists()
+    dry = cli.invoke(app, ["sweep", str(short_sweep(tmp_path, "  ego.speed: [8, 9]\n")), "--out",
+                           str(tmp_path / "o"), "--dry-run"])
+    assert dry.exit_code == 0 and "2 variants, 0 done, 2 to run" in dry.output
+
+
+# --------------------------------------------------------------------------- benchmarks (structure only)
+
+
+def _check_bench(result: dict, ratio: str) -> None:
+    assert set(result) >= {"machine", "cases", "ratios"} and result["machine"]["cpus"]
+    for c in result["cases"].values():
+        assert set(c) >= {"ms_median", "ms_p95", "n"} and c["n"] >= 1
+    assert result["ratios"][ratio] > 0
+    json.dumps(result)
+
+
+def test_bench_env_and_bench_sweep_json(tmp_path):
+    from tools.bench_env import bench_env
+    from tools.bench_sweep import bench_sweep
+
+    env = bench_env(ROOT / "scenarios" / "highway_traffic.yaml", steps=20)
+    _check_bench(env, "tracks_env_realtime_factor")
+    assert env["traffic_vehicles"] == 10 and env["cases"]["tracks_env_step"]["n"] == 20
+    assert "highway_env_step" in env["cases"] and "highway_env_realtime_factor" in env["ratios"]
+    sw = short_sweep(tmp_path, "  ego.speed: [8, 9, 10]\n", duration=1.0)
+    result = bench_sweep(sw, variants=2)
+    _check_bench(result, "two_workers_over_one")
+    assert result["variants"] == 2 and result["failed_variants"] == 0
+    assert set(result["cases"]) == {"sweep_1_worker", "sweep_2_workers", "variant_1_worker", "variant_2_workers"}
+    assert len(result["worker_pids"]["2"]) == 2

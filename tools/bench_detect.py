@@ -1,0 +1,72 @@
+"""``lookahead bench detect``: the ONNX detector end to end vs its bare ``session.run``.
+
+Rendered 640 x 360 frames of a scenario go through ``OnnxDetector.detect``
+(letterbox, inference, decode, per-class NMS) and, interleaved frame by frame in
+the same process, through ``session.run`` alone on the already-letterboxed
+tensor. Ratio ``pipeline_over_session_run`` = median pipeline ms / median
+``session.run`` ms; ``fps`` = 1000 / median pipeline ms. The cases
+``preprocess`` and ``postprocess`` are the pipeline's own stage timings.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from sim.runner import DEFAULT_MODEL, Runner
+from sim.scenario import DetectorSpec, load_scenario
+from tools.bench import case, machine
+
+
+def render_frames(scenario_path: Path, n: int) -> list[np.ndarray]:
+    """``n`` camera images of the scenario (one per camera frame, from the start)."""
+    sc = load_scenario(scenario_path)
+    sc = sc.model_copy(update={"perception": sc.perception.model_copy(update={"detector": DetectorSpec(kind="gt")})})
+    runner = Runner(sc, render=True)
+    frames = []
+    try:
+        while len(frames) < n:
+            for _ in range(runner.frame_every):
+                runner.world.step()
+            frames.append(runner.frame()[0].image)
+    finally:
+        runner.close()
+    return frames
+
+
+def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None, frames: int = 30,
+                 repeats: int = 3) -> dict:
+    from perception.detectors.onnx_detector import OnnxDetector
+
+    root = Path(__file__).resolve().parents[1]
+    images = render_frames(scenario_path or root / "scenarios" / "urban_mix.yaml", frames)
+    det = OnnxDetector(model)
+    det.warmup(3)
+    samples: dict[str, list[float]] = {"pipeline": [], "session_run": [], "preprocess": [], "postprocess": []}
+    n_dets = []
+    for _ in range(repeats):
+        for img in images:
+            t0 = time.perf_counter()
+            d = det.detect(img)
+            samples["pipeline"].append((time.perf_counter() - t0) * 1e3)
+            samples["preprocess"].append(det.last_timing_ms["preprocess"])
+            samples["postprocess"].append(det.last_timing_ms["postprocess"])
+            tensor, _, _ = det.preprocess(img)
+            t0 = time.perf_counter()
+            det.infer(tensor)
+            samples["session_run"].append((time.perf_counter() - t0) * 1e3)
+            n_dets.append(len(d))
+    cases = {k: case(v) for k, v in samples.items()}
+    ratio = cases["pipeline"]["ms_median"] / cases["session_run"]["ms_median"]
+    return {
+        "machine": machine(),
+        "model": str(model),
+        "image": [int(images[0].shape[1]), int(images[0].shape[0])],
+        "providers": det.session.get_providers(),
+        "cases": cases,
+        "ratios": {"pipeline_over_session_run": round(ratio, 4)},
+        "fps": round(1000.0 / cases["pipeline"]["ms_median"], 2),
+        "detections_per_frame": round(float(np.mean(n_dets)), 2),
+    }

@@ -1,0 +1,226 @@
+"""Training data for ``CenterDet``: COCO splits written by ``lookahead export-dataset``.
+
+Training crops are cut from images letterboxed exactly as
+``perception.detectors.onnx_detector`` does at run time (``perception.letterbox``), so
+training sees the grey bands inference sees.
+Boxes are visible boxes, xyxy px. An object is *trained* when its visible box is at
+least ``MIN_TRAIN_H`` px tall and ``MIN_TRAIN_W`` wide with visible fraction >=
+``MIN_TRAIN_VISIBLE``; other labelled objects are *ignored*: the heat-map loss is
+masked over their boxes (the network is neither taught nor punished there).
+
+Targets (CenterNet, stride ``STRIDE``): a Gaussian per trained object on its class's
+heat map, peak 1 at the cell holding the box centre (sigma from the box size, as
+CenterNet's ``gaussian_radius`` with min overlap 0.7); at that cell the centre's
+offset in the cell and log(w / STRIDE), log(h / STRIDE).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from perception.letterbox import letterbox, letterbox_boxes
+
+log = logging.getLogger(__name__)
+
+STRIDE = 4
+INPUT_HW = (384, 640)
+MIN_TRAIN_H, MIN_TRAIN_W, MIN_TRAIN_VISIBLE = 4.0, 2.0, 0.25
+MAX_OBJECTS = 96
+
+
+@dataclass
+class Split:
+    """One COCO split held in memory: camera images and per-image labels."""
+
+    images: np.ndarray  # (N, H, W, 3) uint8 RGB
+    boxes: list[np.ndarray]  # per image (K, 4) xyxy px
+    classes: list[np.ndarray]  # per image (K,) int class id
+    visible: list[np.ndarray]  # per image (K,) visible fraction
+    ranges: list[np.ndarray]  # per image (K,) range (m)
+    names: list[str]  # image file names
+
+
+def load_split(path: str | Path, limit: int | None = None) -> Split:
+    """Read ``path/annotations.json`` and its images (RGB; all of one size)."""
+    root = Path(path)
+    ann_file = root / "annotations.json"
+    if not ann_file.is_file():
+        raise FileNotFoundError(f"{ann_file}: no COCO annotations (export with --format coco)")
+    doc = json.loads(ann_file.read_text())
+    images = doc["images"][:limit] if limit else doc["images"]
+    by_image: dict[int, list[dict]] = {}
+    for a in doc["annotations"]:
+        by_image.setdefault(a["image_id"], []).append(a)
+    hw = (images[0]["height"], images[0]["width"]) if images else INPUT_HW
+    out = np.empty((len(images), *hw, 3), dtype=np.uint8)
+    boxes, classes, visible, ranges, names = [], [], [], [], []
+    for i, im in enumerate(images):
+        bgr = cv2.imread(str(root / im["file_name"]), cv2.IMREAD_COLOR)
+        if bgr is None:
+            raise FileNotFoundError(f"{root / im['file_name']}: unreadable image")
+        if bgr.shape[:2] != hw:
+            raise ValueError(f"{root / im['file_name']}: {bgr.shape[1]}x{bgr.shape[0]} px, the split's first "
+                             f"image is {hw[1]}x{hw[0]}")
+        out[i] = cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB)
+        anns = by_image.get(im["id"], [])
+        xywh = np.array([a["bbox"] for a in anns], dtype=np.float64).reshape(-1, 4)
+        xyxy = np.concatenate([xywh[:, :2], xywh[:, :2] + xywh[:, 2:]], axis=1)
+        boxes.append(xyxy.astype(np.float32))
+        classes.append(np.array([a["category_id"] - 1 for a in anns], dtype=np.int64))
+        visible.append(np.array([1.0 - a["occlusion"] for a in anns], dtype=np.float32))
+        ranges.append(np.array([a["attributes"]["range_m"] for a in anns], dtype=np.float32))
+        names.append(im["file_name"])
+    log.info("%s: %d images, %d objects", root, len(images), sum(len(b) for b in boxes))
+    return Split(out, boxes, classes, visible, ranges, names)
+
+
+def trained_mask(boxes: np.ndarray, visible: np.ndarray) -> np.ndarray:
+    w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
+    return (h >= MIN_TRAIN_H) & (w >= MIN_TRAIN_W) & (visible >= MIN_TRAIN_VISIBLE)
+
+
+# ------------------------------------------------------------------ augmentation
+def _photometric(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Saturation / contrast / brightness / white-balance / gamma jitter (one per-channel LUT),
+    sometimes blur or sensor noise (uint8 in/out)."""
+    sat = rng.uniform(0.6, 1.4)
+    grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    img = cv2.addWeighted(img, sat, cv2.cvtColor(grey, cv2.COLOR_GRAY2RGB), 1.0 - sat, 0.0)
+    mean = float(grey.mean())
+    v = np.arange(256, dtype=np.float32)[:, None]
+    v = mean + (v - mean) * rng.uniform(0.7, 1.3) + rng.uniform(-25.0, 25.0)
+    v = np.clip(v * rng.uniform(0.9, 1.1, size=(1, 3)), 0.0, 255.0)
+    lut = np.clip(255.0 * (v / 255.0) ** rng.uniform(0.7, 1.4), 0, 255).astype(np.uint8)
+    img = cv2.LUT(img, np.ascontiguousarray(lut[None]))  # (1, 256, 3): one table per channel
+    if rng.random() < 0.2:
+        k = int(rng.choice([3, 5]))
+        img = cv2.GaussianBlur(img, (k, k), 0)
+    if rng.random() < 0.3:
+        noise = rng.standard_normal(img.shape, dtype=np.float32) * rng.uniform(2.0, 10.0)
+        img = np.clip(img + noise, 0, 255).astype(np.uint8)
+    return img
+
+
+def random_crop(
+    img: np.ndarray, boxes: np.ndarray, crop_hw: tuple[int, int], rng: np.random.Generator,
+    scale_range: tuple[float, float] = (0.8, 1.25),
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rescale by a random factor, crop ``crop_hw`` (biased toward objects), flip half the time.
+
+    Returns the crop, its boxes (clipped) and a mask of boxes that keep >= 60 % of
+    their area (the others become ignore regions).
+    """
+    s = float(np.exp(rng.uniform(np.log(scale_range[0]), np.log(scale_range[1]))))
+    h, w = img.shape[:2]
+    nh, nw = max(crop_hw[0], round(h * s)), max(crop_hw[1], round(w * s))
+    sx, sy = nw / w, nh / h
+    img = cv2.resize(img, (nw, nh), interpolation=cv2.INTER_LINEAR)
+    b = boxes * np.array([sx, sy, sx, sy], dtype=np.float32)
+    ch, cw = crop_hw
+    if len(b) and rng.random() < 0.7:  # centre the crop near an object
+        k = int(rng.integers(len(b)))
+        cx, cy = (b[k, 0] + b[k, 2]) / 2 + rng.uniform(-cw / 3, cw / 3), (b[k, 1] + b[k, 3]) / 2
+        x0 = int(np.clip(cx - cw / 2, 0, nw - cw))
+        y0 = int(np.clip(cy - ch / 2 + rng.uniform(-ch / 4, ch / 4), 0, nh - ch))
+    else:
+        x0, y0 = int(rng.integers(0, nw - cw + 1)), int(rng.integers(0, nh - ch + 1))
+    crop = img[y0:y0 + ch, x0:x0 + cw]
+    area = np.maximum(b[:, 2] - b[:, 0], 0) * np.maximum(b[:, 3] - b[:, 1], 0)
+    b = b - np.array([x0, y0, x0, y0], dtype=np.float32)
+    c = np.clip(b, 0, [cw, ch, cw, ch]).astype(np.float32)
+    carea = np.maximum(c[:, 2] - c[:, 0], 0) * np.maximum(c[:, 3] - c[:, 1], 0)
+    whole = carea >= 0.6 * np.maximum(area, 1e-6)
+    if rng.random() < 0.5:
+        crop = crop[:, ::-1]
+        c = np.stack([cw - c[:, 2], c[:, 1], cw - c[:, 0], c[:, 3]], axis=1)
+    return np.ascontiguousarray(crop), c, whole & (carea > 0)
+
+
+# ------------------------------------------------------------------ targets
+def gaussian_radius(h: float, w: float, min_overlap: float = 0.7) -> float:
+    """CenterNet's radius (cells) within which a corner shift keeps IoU >= ``min_overlap``."""
+    a1, b1 = 1.0, h + w
+    c1 = w * h * (1 - min_overlap) / (1 + min_overlap)
+    r1 = (b1 + math.sqrt(b1 * b1 - 4 * a1 * c1)) / 2
+    a2, b2 = 4.0, 2 * (h + w)
+    c2 = (1 - min_overlap) * w * h
+    r2 = (b2 + math.sqrt(b2 * b2 - 4 * a2 * c2)) / 2
+    a3, b3 = 4 * min_overlap, -2 * min_overlap * (h + w)
+    c3 = (min_overlap - 1) * w * h
+    r3 = (b3 + math.sqrt(b3 * b3 - 4 * a3 * c3)) / 2
+    return min(r1, r2, r3)
+
+
+@dataclass
+class Targets:
+    heat: np.ndarray  # (C, h, w) float32 in [0, 1]
+    mask: np.ndarray  # (h, w) float32: 0 inside ignored boxes
+    index: np.ndarray  # (K,) int64 flat cell index of each trained object's centre
+    reg: np.ndarray  # (K, 4) float32 offset x, y (cells, [0, 1)), log w, log h (cells)
+    valid: np.ndarray  # (K,) float32 1 for real entries
+
+
+def encode(boxes: np.ndarray, classes: np.ndarray, train: np.ndarray, hw: tuple[int, int],
+           num_classes: int) -> Targets:
+    """CenterNet targets for an image of ``hw`` px (module docstring)."""
+    gh, gw = hw[0] // STRIDE, hw[1] // STRIDE
+    heat = np.zeros((num_classes, gh, gw), dtype=np.float32)
+    mask = np.ones((gh, gw), dtype=np.float32)
+    index = np.zeros(MAX_OBJECTS, dtype=np.int64)
+    reg = np.zeros((MAX_OBJECTS, 4), dtype=np.float32)
+    valid = np.zeros(MAX_OBJECTS, dtype=np.float32)
+    ys, xs = np.arange(gh, dtype=np.float32)[:, None], np.arange(gw, dtype=np.float32)[None, :]
+    k = 0
+    for box, cls, t in zip(boxes, classes, train, strict=True):
+        x0, y0, x1, y1 = (float(v) / STRIDE for v in box)
+        if not t:
+            mask[max(0, int(y0)):int(math.ceil(y1)) + 1, max(0, int(x0)):int(math.ceil(x1)) + 1] = 0.0
+            continue
+        cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+        ix, iy = min(int(cx), gw - 1), min(int(cy), gh - 1)
+        r = max(0.0, gaussian_radius(y1 - y0, x1 - x0))
+        sigma = (2 * r + 1) / 6
+        g = np.exp(-((xs - ix) ** 2 + (ys - iy) ** 2) / (2 * sigma * sigma))
+        np.maximum(heat[cls], g, out=heat[cls])
+        heat[cls, iy, ix] = 1.0
+        if k < MAX_OBJECTS:
+            index[k] = iy * gw + ix
+            reg[k] = (cx - ix, cy - iy, math.log(max(x1 - x0, 1e-2)), math.log(max(y1 - y0, 1e-2)))
+            valid[k] = 1.0
+            k += 1
+    mask = np.maximum(mask, heat.max(axis=0) >= 1.0)  # a trained centre is never masked
+    return Targets(heat, mask, index, reg, valid)
+
+
+class TrainSampler:
+    """Random training samples (crop, targets) from a ``Split``; every draw from ``rng``."""
+
+    def __init__(self, split: Split, crop_hw: tuple[int, int], num_classes: int, seed: int) -> None:
+        self.split, self.crop_hw, self.num_classes = split, crop_hw, num_classes
+        self.rng = np.random.default_rng(seed)
+
+    def sample(self, i: int) -> tuple[np.ndarray, Targets]:
+        s = self.split
+        train = trained_mask(s.boxes[i], s.visible[i])
+        padded, scale, pad = letterbox(s.images[i], INPUT_HW)
+        boxes = letterbox_boxes(s.boxes[i], scale, pad).astype(np.float32)
+        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng)
+        crop = _photometric(crop, self.rng)
+        w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
+        keep = (w > 0) & (h > 0)
+        ok = train & whole & (h >= MIN_TRAIN_H) & (w >= MIN_TRAIN_W)
+        tgt = encode(boxes[keep], s.classes[i][keep], ok[keep], self.crop_hw, self.num_classes)
+        return crop, tgt
+
+    def batch(self, idx: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        samples = [self.sample(int(i)) for i in idx]
+        x = np.stack([c for c, _ in samples]).transpose(0, 3, 1, 2)
+        t = {f: np.stack([getattr(tg, f) for _, tg in samples]) for f in ("heat", "mask", "index", "reg", "valid")}
+        return x, t

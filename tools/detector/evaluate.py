@@ -1,0 +1,146 @@
+"""Detector accuracy on a COCO split, through the run-time pipeline (``OnnxDetector``).
+
+Evaluated ground truth: objects of the eight classes at range ``RANGE_M`` (5-50 m)
+with visible fraction >= ``MIN_VISIBLE`` (0.5) -- the issue's acceptance set. Every
+other labelled object is *don't care*: a detection matching it (same class, IoU >=
+0.5) is neither a true nor a false positive. Matching per image and class is
+greedy by score at IoU >= 0.5 (``tools.scoring.matching``); AP is the all-point
+interpolated AP of ``tools.scoring.detection.average_precision``.
+
+Reported (``evaluate_split``):
+
+* ``ap50``: mean over classes with evaluated objects; ``ap50_pooled``: one ranked
+  list over all classes (class-aware matching), so frequent classes weigh more;
+* ``recall_at_p95``: the highest recall at which precision is still >= 0.95 (pooled);
+* ``precision`` / ``recall`` at the detector's operating threshold (``conf``);
+* ``per_class`` AP50 and recall, and the same with a class-agnostic match
+  (``agnostic``: a box of the wrong class still finds the object).
+
+Detections are computed at a low score threshold (``AP_CONF``) once; operating-point
+figures keep those with score > ``conf``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from perception.detections import CLASSES
+from tools.detector.data import Split, load_split
+from tools.scoring.detection import average_precision
+from tools.scoring.matching import class_iou, greedy_match
+
+log = logging.getLogger(__name__)
+
+RANGE_M = (5.0, 50.0)
+MIN_VISIBLE = 0.5
+AP_CONF = 0.01
+PRECISION_FLOOR = 0.95
+
+TP, FP, IGNORED = 1, 0, -1
+
+
+def match_image(
+    xyxy: np.ndarray, score: np.ndarray, cls: np.ndarray, gt: np.ndarray, gt_cls: np.ndarray,
+    evaluated: np.ndarray, agnostic: bool = False,
+) -> np.ndarray:
+    """Status (M,) of each detection: TP, FP or IGNORED (module docstring)."""
+    dc, gc = (None, None) if agnostic else (cls, gt_cls)
+    order = np.argsort(-score, kind="stable")
+    iou = class_iou(xyxy, dc, gt[evaluated], None if gc is None else gc[evaluated])
+    tp = greedy_match(iou, order) >= 0
+    iou_dc = class_iou(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated])
+    ignored = ~tp & np.any(iou_dc >= 0.5, axis=1)
+    return np.where(tp, TP, np.where(ignored, IGNORED, FP))
+
+
+def recall_at_precision(score: np.ndarray, is_tp: np.ndarray, n_gt: int, floor: float) -> float:
+    """Highest recall over score thresholds at which precision >= ``floor`` (0 when never)."""
+    if n_gt == 0 or len(score) == 0:
+        return 0.0
+    order = np.argsort(-score, kind="stable")
+    tp = np.cumsum(is_tp[order])
+    prec = tp / np.arange(1, len(order) + 1)
+    ok = prec >= floor
+    return float(tp[ok].max() / n_gt) if ok.any() else 0.0
+
+
+def _summary(status: np.ndarray, score: np.ndarray, cls: np.ndarray, gt_cls: np.ndarray,
+             conf: float) -> dict:
+    counted = status != IGNORED
+    per_class: dict[str, dict] = {}
+    aps = []
+    for c in range(len(CLASSES)):
+        n = int(np.sum(gt_cls == c))
+        if n == 0:
+            continue
+        sel = counted & (cls == c)
+        ap = average_precision(score[sel], status[sel] == TP, n)
+        aps.append(ap)
+        op = sel & (score > conf)
+        per_class[CLASSES[c]] = {"gt": n, "ap50": round(ap, 4),
+                                 "recall": round(float(np.sum(status[op] == TP)) / n, 4)}
+    n_gt = len(gt_cls)
+    s, t = score[counted], status[counted] == TP
+    op = counted & (score > conf)
+    tp, fp = int(np.sum(status[op] == TP)), int(np.sum(status[op] == FP))
+    return {
+        "gt": n_gt,
+        "ap50": round(float(np.mean(aps)), 4) if aps else None,
+        "ap50_pooled": round(average_precision(s, t, n_gt), 4) if n_gt else None,
+        "recall_at_p95": round(recall_at_precision(s, t, n_gt, PRECISION_FLOOR), 4),
+        "precision": round(tp / (tp + fp), 4) if tp + fp else None,
+        "recall": round(tp / n_gt, 4) if n_gt else None,
+        "tp": tp, "fp": fp,
+        "per_class": per_class,
+    }
+
+
+def evaluate_split(
+    split: Split, detect: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    conf: float = 0.25, range_m: tuple[float, float] = RANGE_M, min_visible: float = MIN_VISIBLE,
+) -> dict:
+    """Accuracy of ``detect`` (RGB image -> xyxy, score, class id in image px) on ``split``."""
+    status = {False: [], True: []}
+    scores, classes, gt_classes = [], [], []
+    for i in range(len(split.images)):
+        boxes = split.boxes[i]
+        xyxy, score, cls = detect(split.images[i])
+        keep = score > AP_CONF
+        xyxy, score, cls = xyxy[keep], score[keep], cls[keep]
+        rng, vis = split.ranges[i], split.visible[i]
+        evaluated = (rng >= range_m[0]) & (rng <= range_m[1]) & (vis >= min_visible)
+        for agn in (False, True):
+            status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn))
+        scores.append(score)
+        classes.append(cls)
+        gt_classes.append(split.classes[i][evaluated])
+    cat = lambda parts, dt: np.concatenate(parts).astype(dt) if parts else np.zeros(0, dt)  # noqa: E731
+    score, cls, gt_cls = cat(scores, np.float64), cat(classes, np.int64), cat(gt_classes, np.int64)
+    result = _summary(cat(status[False], np.int64), score, cls, gt_cls, conf)
+    agn = _summary(cat(status[True], np.int64), score, np.zeros_like(cls), np.zeros_like(gt_cls), conf)
+    result["agnostic"] = {k: agn[k] for k in ("ap50", "recall_at_p95", "precision", "recall")}
+    result["images"] = len(split.images)
+    result["conf"] = conf
+    return result
+
+
+def onnx_detect(model: str | Path, preprocess=None):
+    """A ``detect`` callable running ``OnnxDetector`` at ``AP_CONF`` (with an optional
+    ``perception.preprocess`` chain in front)."""
+    from perception.detectors.onnx_detector import OnnxDetector
+
+    det = OnnxDetector(model, conf_threshold=AP_CONF)
+
+    def detect(img: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        d = det.detect(img if preprocess is None else preprocess(img))
+        return d.xyxy, d.score, d.class_id
+
+    return detect
+
+
+def evaluate_model(model: str | Path, split_dir: str | Path, conf: float = 0.25, preprocess=None) -> dict:
+    return evaluate_split(load_split(split_dir), onnx_detect(model, preprocess), conf)

@@ -1,0 +1,189 @@
+"""``lookahead train-detector``: train ``CenterDet`` on exported COCO splits and export ONNX.
+
+Loss (CenterNet): penalty-reduced focal loss on the class heat maps (alpha 2, beta 4,
+normalised by the number of objects, masked over ignored boxes) + L1 on the
+centre offset (after the sigmoid the decoder applies) + L1 on log(w), log(h)
+(cells), at each trained object's centre cell.
+
+Optimiser: AdamW, linear warm-up then cosine decay, batches of random crops
+(``tools.detector.data.TrainSampler``), channels-last tensors (faster convolutions
+on CPU). Every draw comes from ``seed`` (crop sampling, augmentation, init), and
+torch runs deterministic algorithms; on this CPU the same command gives the same
+weights (thread scheduling aside, bit-exactness is not promised across machines).
+
+The exported ONNX (opset 17) takes ``images`` (1, 3, 384, 640) float RGB in [0, 1]
+and gives ``output0`` (1, 4 + 8, 15360) in the YOLOv8 layout (``model.Decoded``),
+with Ultralytics-style metadata (``names``, ``stride``, ``imgsz``) plus how it was
+trained (``lookahead`` version, data, epochs, seed).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from perception.detections import CLASSES
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class TrainConfig:
+    epochs: int = 12
+    batch: int = 16
+    crop: tuple[int, int] = (256, 384)  # px (h, w), multiples of 32
+    lr: float = 2e-3
+    weight_decay: float = 1e-4
+    warmup_steps: int = 200
+    seed: int = 0
+    threads: int = 2
+    eval_every: int = 4  # epochs; 0 = only at the end
+    limit: int | None = None  # use only the first N training images (smoke tests)
+
+
+def focal_loss(logits, heat, mask):
+    """CenterNet's penalty-reduced focal loss (sum over cells / number of positives)."""
+    import torch
+    from torch.nn import functional as F
+
+    pos = heat.eq(1.0).float()
+    neg = (1.0 - pos) * mask
+    logp, log1mp = F.logsigmoid(logits), F.logsigmoid(-logits)
+    p = torch.sigmoid(logits)
+    pos_loss = -(log1mp.new_ones(()) - p).pow(2) * logp * pos
+    neg_loss = -(1.0 - heat).pow(4) * p.pow(2) * log1mp * neg
+    n = pos.sum().clamp(min=1.0)
+    return (pos_loss.sum() + neg_loss.sum()) / n
+
+
+def reg_loss(reg, index, target, valid):
+    """L1 of offset (sigmoid space) and log size at the objects' centre cells (mean over objects)."""
+    import torch
+
+    b, c = reg.shape[:2]
+    flat = reg.reshape(b, c, -1).permute(0, 2, 1)  # (B, HW, 4)
+    pred = torch.gather(flat, 1, index[..., None].expand(-1, -1, c))  # (B, K, 4)
+    off = torch.sigmoid(pred[..., :2])
+    err = torch.cat([off - target[..., :2], pred[..., 2:] - target[..., 2:]], dim=-1).abs().sum(-1)
+    n = valid.sum().clamp(min=1.0)
+    return (err * valid).sum() / n
+
+
+def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, int] = (384, 640)) -> Path:
+    """Write the decoded graph (``model.Decoded``) as ONNX opset 17 with ``metadata``."""
+    import onnx
+    import torch
+
+    from tools.detector.model import Decoded
+
+    net = net.eval()
+    dec = Decoded(net).eval()
+    x = torch.zeros(1, 3, *input_hw)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(".tmp.onnx")
+    with torch.no_grad():
+        torch.onnx.export(dec, x, str(tmp), opset_version=17, input_names=["images"],
+                          output_names=["output0"], dynamo=False, do_constant_folding=True)
+    model = onnx.load(str(tmp))
+    for k, v in metadata.items():
+        entry = model.metadata_props.add()
+        entry.key, entry.value = k, v
+    onnx.checker.check_model(model)
+    onnx.save(model, str(path))
+    tmp.unlink(missing_ok=True)
+    return path
+
+
+def model_metadata(cfg: TrainConfig, data: str, extra: dict | None = None) -> dict[str, str]:
+    from importlib import metadata as md
+
+    names = {i: n for i, n in enumerate(CLASSES)}
+    meta = {
+        "names": str(names), "stride": "4", "imgsz": "[384, 640]", "task": "detect",
+        "description": "lookahead CenterDet (stride-4 CenterNet head, YOLOv8 output layout)",
+        "lookahead_version": md.version("lookahead"), "train_data": data,
+        "train_config": json.dumps(asdict(cfg)),
+    }
+    meta.update({k: str(v) for k, v in (extra or {}).items()})
+    return meta
+
+
+def lr_at(step: int, total: int, cfg: TrainConfig) -> float:
+    if step < cfg.warmup_steps:
+        return cfg.lr * (step + 1) / cfg.warmup_steps
+    t = (step - cfg.warmup_steps) / max(1, total - cfg.warmup_steps)
+    return cfg.lr * (0.02 + 0.98 * 0.5 * (1 + math.cos(math.pi * t)))
+
+
+def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
+    """Train on ``data_dir/train`` (validating on ``data_dir/val`` when present); write ``out`` (ONNX).
+
+    Returns the training log: per-epoch losses and validation metrics, seconds.
+    """
+    import torch
+
+    from tools.detector.data import TrainSampler, load_split
+    from tools.detector.evaluate import evaluate_model
+    from tools.detector.model import CenterDet
+
+    torch.manual_seed(cfg.seed)
+    torch.set_num_threads(cfg.threads)
+    torch.use_deterministic_algorithms(True, warn_only=True)
+    train_split = load_split(Path(data_dir) / "train", cfg.limit)
+    val_dir = Path(data_dir) / "val"
+    sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed)
+    net = CenterDet(len(CLASSES)).to(memory_format=torch.channels_last)
+    decay = [p for n, p in net.named_parameters() if p.ndim > 1]
+    no_decay = [p for n, p in net.named_parameters() if p.ndim <= 1]
+    opt = torch.optim.AdamW([{"params": decay, "weight_decay": cfg.weight_decay},
+                             {"params": no_decay, "weight_decay": 0.0}], lr=cfg.lr)
+    n = len(train_split.images)
+    steps_per_epoch = max(1, n // cfg.batch)
+    total = steps_per_epoch * cfg.epochs
+    order_rng = np.random.default_rng([cfg.seed, 1])
+    history: list[dict] = []
+    t_start = time.perf_counter()
+    step = 0
+    for epoch in range(cfg.epochs):
+        net.train()
+        perm = order_rng.permutation(n)
+        sums = np.zeros(3)
+        for b in range(steps_per_epoch):
+            idx = perm[b * cfg.batch:(b + 1) * cfg.batch]
+            x, t = sampler.batch(idx)
+            xt = torch.from_numpy(x).float().div_(255.0).contiguous(memory_format=torch.channels_last)
+            tt = {k: torch.from_numpy(v) for k, v in t.items()}
+            for g in opt.param_groups:
+                g["lr"] = lr_at(step, total, cfg)
+            heat, reg = net(xt)
+            lh = focal_loss(heat, tt["heat"], tt["mask"][:, None])
+            lr_ = reg_loss(reg, tt["index"], tt["reg"], tt["valid"])
+            loss = lh + lr_
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(net.parameters(), 10.0)
+            opt.step()
+            sums += (loss.item(), lh.item(), lr_.item())
+            step += 1
+            if progress:
+                progress(step / total)
+        mean = [round(float(v) / steps_per_epoch, 4) for v in sums]
+        entry = {"epoch": epoch + 1, "loss": mean[0], "heat": mean[1], "reg": mean[2],
+                 "s": round(time.perf_counter() - t_start, 1)}
+        last = epoch + 1 == cfg.epochs
+        if val_dir.is_dir() and (last or (cfg.eval_every and (epoch + 1) % cfg.eval_every == 0)):
+            export_onnx(net, out, model_metadata(cfg, str(data_dir)))
+            m = evaluate_model(out, val_dir)
+            entry["val"] = {k: m[k] for k in ("ap50", "ap50_pooled", "recall_at_p95", "precision", "recall")}
+            net.to(memory_format=torch.channels_last)
+        log.info("epoch %s", entry)
+        history.append(entry)
+    seconds = time.perf_counter() - t_start
+    export_onnx(net, out, model_metadata(cfg, str(data_dir), {"train_seconds": round(seconds, 1)}))
+    return {"config": asdict(cfg), "images": n, "seconds": round(seconds, 1), "history": history, "model": str(out)}

@@ -1,0 +1,869 @@
+"""Scenario sweeps: one scenario expanded over parameter grids and random samples.
+
+A sweep file (YAML, validated by ``SweepSpec``; paths relative to the file)::
+
+    name: aeb_stationary_car            # default: the file's stem
+    scenario: ../stationary_car.yaml    # the base scenario
+    set: {duration: 6.0}                # fixed overrides for every variant (not part of the id)
+    grid:                               # Cartesian product of value lists
+      ego.speed: [8.3, 11.1, 13.9, 16.7]
+      ego.aeb: [false, true]
+    samples:                            # n random draws, combined with every grid point
+      n: 4
+      seed: 1
+      params:
+        actors[target].impact_offset: {uniform: [-0.9, 0.9]}
+        weather.kind: {choice: [clear, fog]}
+        seed: {randint: [0, 1000]}
+    report: {x: [ego.speed], split: ego.aeb, metrics: [closed_loop.impact_speed]}
+
+Parameter paths are dotted scenario field paths; list items are selected by id
+(``actors[ped1].speed``) or index (``actors.0.speed`` / ``actors[0].speed``);
+free-form mappings (``perception.detector.noise``, ``perception.tracker``,
+``intent``...) accept new keys. ``actors[ID].impact_offset`` is a convenience
+(see ``place_impact_offset``). Each variant is the base scenario with ``set``
+then its parameters applied and validated again, so a bad path or value is one
+``SweepError`` line naming the sweep file and the parameter.
+
+Variant id = readable slug of the parameter values + 8 hex of the SHA-1 of the
+canonical JSON of ``{path: value}``: it depends on the values only, not on the
+order of expansion, the file's key order or the worker count. Sampled floats
+are rounded to 6 decimals; every parameter draws from its own generator
+(``default_rng([seed, crc32(path)])``), so adding a parameter leaves the others'
+draws unchanged.
+
+``run_sweep`` writes ``OUT/runs/<id>/`` (the variant's ``scenario.yaml``,
+``variant.json`` and a normal run directory), one SQLite store for all
+variants (``OUT/sweep.sqlite``, one run per variant), ``OUT/summary.json``
+(per-variant parameters, status, key metrics; ``totals`` pooled from the
+variants' metrics by ``sweep_totals``) and ``OUT/report.html``
+(``tools.sweep_report``). A variant is done when its ``run.json`` says
+``complete: true`` with the variant's ``config_hash`` and its ``metrics.json`` exists; a re-run skips done variants and re-runs the rest
+(their directories and store rows are removed first). A variant that raises is
+``failed`` with a one-line error and does not stop the others.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import logging
+import math
+import os
+import re
+import shutil
+import time
+import types
+import typing
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any
+
+import yaml
+from pydantic import BaseModel, Discriminator, Field, Tag, ValidationError, model_validator
+
+from sim.scenario import Scenario, ScenarioError, Strict, _format_validation, load_scenario
+
+log = logging.getLogger(__name__)
+
+SUMMARY_FILE = "summary.json"
+RUNS_DIR = "runs"
+DB_FILE = "sweep.sqlite"
+IMPACT_OFFSET = "impact_offset"
+SLUG_MAX = 60
+#: Metrics copied (flat, dotted) into summary.json for every variant.
+KEY_METRICS: tuple[str, ...] = (
+    "closed_loop.collision", "closed_loop.impact_speed", "closed_loop.min_ttc", "closed_loop.aeb_active_s",
+    "detection.recall", "detection.precision", "tracking.mota", "tracking.idf1",
+    "estimation.range_rel_err_median", "estimation.speed_err_median",
+    "intent.accuracy", "intent.macro_f1",
+    "danger.events", "danger.missed", "danger.false_alarms", "danger.lead_time_s_median",
+)
+
+
+class SweepError(ScenarioError):
+    """A sweep that cannot be used (file, parameter or Ray cluster); ``str()`` is one line."""
+
+
+# --------------------------------------------------------------------------- the sweep file
+
+
+class Uniform(Strict):
+    uniform: tuple[float, float]
+
+    @model_validator(mode="after")
+    def _order(self) -> Uniform:
+        if not self.uniform[0] <= self.uniform[1]:
+            raise ValueError("uniform: expected [low, high] with low <= high")
+        return self
+
+
+class RandInt(Strict):
+    randint: tuple[int, int] = Field(description="[low, high], both inclusive")
+
+    @model_validator(mode="after")
+    def _order(self) -> RandInt:
+        if not self.randint[0] <= self.randint[1]:
+            raise ValueError("randint: expected [low, high] with low <= high")
+        return self
+
+
+class Choice(Strict):
+    choice: list[Any] = Field(min_length=1)
+
+
+def _dist_kind(v: Any) -> str | None:
+    if isinstance(v, BaseModel):
+        return next(iter(type(v).model_fields))
+    if isinstance(v, dict) and len(v) == 1 and next(iter(v)) in ("uniform", "randint", "choice"):
+        return next(iter(v))
+    return None
+
+
+Distribution = Annotated[
+    Annotated[Uniform, Tag("uniform")] | Annotated[RandInt, Tag("randint")] | Annotated[Choice, Tag("choice")],
+    Discriminator(_dist_kind, custom_error_type="distribution",
+                  custom_error_message="expected {uniform: [low, high]}, {randint: [low, high]} or {choice: [...]}"),
+]
+
+
+class SampleSpec(Strict):
+    n: int = Field(ge=1, le=100_000, description="number of random draws")
+    seed: int = Field(0, ge=0)
+    params: dict[str, Distribution] = Field(min_length=1)
+
+
+class ReportSpec(Strict):
+    x: list[str] | None = Field(None, description="parameters on the x axes (default: numeric ones)")
+    split: str | None = Field(None, description="parameter whose values are separate series")
+    metrics: list[str] | None = Field(None, description="dotted metrics.json paths to plot")
+
+
+class SweepSpec(Strict):
+    name: str | None = Field(None, min_length=1)
+    description: str = ""
+    scenario: str = Field(min_length=1, description="base scenario, relative to the sweep file")
+    set: dict[str, Any] = Field(default_factory=dict, description="fixed overrides for every variant")
+    grid: dict[str, list[Any]] = Field(default_factory=dict)
+    samples: SampleSpec | None = None
+    report: ReportSpec = Field(default_factory=ReportSpec)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> SweepSpec:
+        for path, values in self.grid.items():
+            if not values:
+                raise ValueError(f"grid: {path}: expected a non-empty list of values")
+        sampled = set(self.samples.params) if self.samples else set()
+        for a, b, what in ((self.grid, sampled, "grid and samples"), (self.set, set(self.grid) | sampled,
+                                                                        "set and grid/samples")):
+            both = sorted(set(a) & set(b))
+            if both:
+                raise ValueError(f"{both[0]} is given in both {what}")
+        params = self.parameters()
+        for name in [*(self.report.x or []), *([self.report.split] if self.report.split else [])]:
+            if name not in params:
+                raise ValueError(f"report: {name!r} is not a grid or samples parameter ({', '.join(params) or 'none'})")
+        return self
+
+    def parameters(self) -> list[str]:
+        return [*self.grid, *(self.samples.params if self.samples else {})]
+
+
+@dataclass
+class Variant:
+    id: str
+    params: dict[str, Any]
+    scenario: Scenario
+
+
+# --------------------------------------------------------------------------- parameter paths
+
+_TOKEN = re.compile(r"(?P<dot>\.)?(?:(?P<name>[A-Za-z_][A-Za-z0-9_]*)|(?P<num>\d+))|\[(?P<sel>[^\]]+)\]")
+_FREE = "free"  # a free-form mapping: any key
+_SCALAR = "scalar"
+
+
+def parse_path(path: str) -> list[tuple[str, str | int]]:
+    """Tokens of a parameter path: ``("name", field)``, ``("index", i)`` or ``("id", item id)``."""
+    tokens: list[tuple[str, str | int]] = []
+    pos = 0
+    while pos < len(path):
+        m = _TOKEN.match(path, pos)
+        first = pos == 0
+        if m is None or (first and (m["dot"] or m["num"])) or (not first and (m["name"] or m["num"]) and not m["dot"]):
+            raise ValueError(f"malformed parameter path (at {path[pos:]!r}); expected e.g. ego.speed, "
+                             "actors[ped1].speed or actors.0.speed")
+        if m["name"]:
+            tokens.append(("name", m["name"]))
+        elif m["num"]:
+            tokens.append(("index", int(m["num"])))
+        else:
+            sel = m["sel"].strip()
+            tokens.append(("index", int(sel)) if sel.isdigit() else ("id", sel))
+        pos = m.end()
+    if not tokens:
+        raise ValueError("empty parameter path")
+    return tokens
+
+
+def _kind(annotation: Any) -> tuple[str, Any]:
+    """What a field holds: ("model", cls), ("list", item kind), (_FREE, None) or (_SCALAR, None)."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _kind(typing.get_args(annotation)[0])
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return "model", annotation
+    if origin is list:
+        (item,) = typing.get_args(annotation) or (Any,)
+        return "list", _kind(item)
+    if origin is dict or annotation is dict:
+        return _FREE, None
+    args = [a for a in typing.get_args(annotation) if a is not type(None)]
+    if origin in (typing.Union, types.UnionType) and len(args) == 1:
+        return _kind(args[0])
+    return _SCALAR, None
+
+
+def _resolve(data: dict, tokens: list, path: str, create: bool = True) -> tuple[Any, str | int, tuple]:
+    """(container, key, loc) of the last token of ``path`` in the scenario data ``data``."""
+    node: Any = data
+    kind: tuple[str, Any] = ("model", Scenario)
+    loc: list[str | int] = []
+
+    def where() -> str:
+        return ".".join(str(x) for x in loc) or "the scenario"
+
+    for i, (tk, val) in enumerate(tokens):
+        last = i == len(tokens) - 1
+        if kind[0] == "list":
+            if tk == "name":
+                raise ValueError(f"{where()} is a list: select an item with [id] or .N, not .{val}")
+            if not isinstance(node, list):
+                raise ValueError(f"{where()} is not set in the base scenario")
+            if tk == "index":
+                if not 0 <= int(val) < len(node):
+                    raise ValueError(f"{where()} has {len(node)} items, no index {val}")
+                idx = int(val)
+            else:
+                ids = [item.get("id") for item in node if isinstance(item, dict)]
+                if val not in ids:
+                    raise ValueError(f"{where()} has no item with id {val!r} (ids: {', '.join(map(str, ids)) or 'none'})")
+                idx = ids.index(val)
+            loc.append(idx)
+            if last:
+                return node, idx, tuple(loc)
+            node, kind = node[idx], kind[1]
+            continue
+        if tk != "name":
+            raise ValueError(f"{where()} is not a list; use .field, not [{val}]")
+        if kind[0] == "model":
+            cls = kind[1]
+            if val not in cls.model_fields:
+                raise ValueError(f"unknown field {val!r} of {where()} (fields: {', '.join(cls.model_fields)})")
+            sub = _kind(cls.model_fields[val].annotation)
+        elif kind[0] == _FREE:
+            sub = (_FREE, None)
+        else:
+            raise ValueError(f"{where()} is a single value; it has no field {val!r}")
+        loc.append(val)
+        if last:
+            return node, val, tuple(loc)
+        if node.get(val) is None:
+            if sub[0] in ("model", _FREE) and create:
+                node[val] = {}
+            else:
+                raise ValueError(f"{where()} is not set in the base scenario")
+        node, kind = node[val], sub
+    raise AssertionError("unreachable")
+
+
+def _is_actor_path(tokens: list) -> bool:
+    return len(tokens) == 3 and tokens[0] == ("name", "actors") and tokens[2] == ("name", IMPACT_OFFSET)
+
+
+def _ramp_distance(u: float, v: float, a: float, t: float) -> float:
+    """Distance in ``t`` s going from speed ``u`` to ``v`` at |accel| ``a``, then holding ``v``."""
+    if a <= 0 or u == v:
+        return v * t
+    t_ramp = abs(v - u) / a
+    if t <= t_ramp:
+        return u * t + math.copysign(0.5 * a * t * t, v - u)
+    return 0.5 * (u + v) * t_ramp + v * (t - t_ramp)
+
+
+def place_impact_offset(actor: dict, ego: dict, offset: float) -> None:
+    """Move ``actor`` (scenario data) so that, with the ego holding its initial speed, the
+    actor's centre is ``offset`` m (left +) from the ego's centreline where the ego meets it.
+
+    * An actor moving along the road (|sin heading| < 0.5): its lateral start is set
+      (``start.y``, or ``start.lane`` = the ego's lane and ``start.offset``).
+    * A crossing actor with an ego-relative start ``{x, y}``: ``start.y`` is set so its
+      lateral travel until the ego's front reaches ``x`` ends at ``offset``. It either
+      moves at its initial speed from t = 0 (no script), or starts from rest on its first
+      script step (``do.speed``, ``do.accel`` or the class default, ``delay``) triggered by
+      ``ego_range_lt`` or ``t``. Kinematic approximation: the actor's footprint is ignored
+      (error ~ its half-length, about 0.3 m for a pedestrian).
+    """
+    from sim.actors import DEFAULT_ACCEL
+
+    aid = actor.get("id")
+    heading = math.radians(float(actor.get("heading", 0.0)))
+    start = actor.setdefault("start", {})
+    xy = start.get("x") is not None and start.get("y") is not None
+    if abs(math.sin(heading)) < 0.5:
+        if xy:
+            start["y"] = offset
+        else:
+            start["lane"], start["offset"] = int(ego.get("lane", 1)), offset
+        return
+    if not xy:
+        raise ValueError(f"actor {aid}: impact_offset of a crossing actor needs an ego-relative start {{x, y}}")
+    v_e = float(ego.get("speed", 11.1))
+    if v_e <= 0:
+        raise ValueError(f"actor {aid}: impact_offset needs a moving ego (ego.speed > 0)")
+    x = float(start["x"])
+    u = float(actor.get("speed", 0.0))
+    script = actor.get("script") or []
+    if not script and u > 0:
+        walk = u * x / v_e
+    elif script and u == 0:
+        step = script[0]
+        when = {k: v for k, v in (step.get("when") or {}).items() if v is not None}
+        do = step.get("do") or {}
+        speed, delay = do.get("speed"), float(step.get("delay", 0.0))
+        if not speed:
+            raise ValueError(f"actor {aid}: impact_offset needs the first script step to set a speed > 0")
+        if set(when) == {"ego_range_lt"}:
+            t_move = float(when["ego_range_lt"]) / v_e - delay
+        elif set(when) == {"t"}:
+            t_move = x / v_e - float(when["t"]) - delay
+        else:
+            raise ValueError(f"actor {aid}: impact_offset needs the first script step triggered by "
+                             "ego_range_lt or t alone")
+        if t_move < 0:
+            raise ValueError(f"actor {aid}: impact_offset: it starts moving after the ego has passed")
+        accel = float(do.get("accel") or DEFAULT_ACCEL.get(str(actor.get("type")), 2.0))
+        walk = _ramp_distance(0.0, float(speed), accel, t_move)
+    else:
+        raise ValueError(f"actor {aid}: impact_offset needs a crossing actor that walks at its initial speed "
+                         "(no script) or starts from rest on its first script step")
+    start["y"] = round(offset - math.sin(heading) * walk, 6)
+
+
+def apply_params(base: dict, params: dict[str, Any]) -> tuple[dict, dict[str, tuple]]:
+    """A deep copy of scenario data ``base`` with ``params`` set; returns it and each path's loc.
+
+    Plain paths first, then the ``impact_offset`` conveniences (they depend on the ego's
+    and the actor's speed). Raises ``ValueError`` naming the path.
+    """
+    data = json.loads(json.dumps(base))
+    locs: dict[str, tuple] = {}
+    later = []
+    for path, value in params.items():
+        try:
+            tokens = parse_path(path)
+            if _is_actor_path(tokens):
+                container, key, loc = _resolve(data, tokens[:2], path, create=False)
+                later.append((path, key, value))
+                locs[path] = (*loc, "start")
+                continue
+            container, key, loc = _resolve(data, tokens, path)
+        except ValueError as e:
+            raise ParamError(path, str(e)) from None
+        container[key] = value
+        locs[path] = loc
+    for path, idx, value in later:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ParamError(path, f"expected a number (m, left +), got {value!r}")
+        try:
+            place_impact_offset(data["actors"][idx], data.get("ego") or {}, float(value))
+        except ValueError as e:
+            raise ParamError(path, str(e)) from None
+    return data, locs
+
+
+# --------------------------------------------------------------------------- expansion and ids
+
+
+def _norm(v: Any) -> Any:
+    """JSON-able canonical value (numpy scalars to Python, 8.0 -> 8, tuples to lists)."""
+    if hasattr(v, "item") and not isinstance(v, list | dict | str):
+        v = v.item()
+    if v is None or isinstance(v, bool | str | int):
+        return v
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"non-finite value {v!r}")
+        return int(v) if v.is_integer() else v
+    if isinstance(v, list | tuple):
+        return [_norm(x) for x in v]
+    if isinstance(v, dict):
+        return {str(k): _norm(x) for k, x in v.items()}
+    raise ValueError(f"unsupported value {v!r} ({type(v).__name__})")
+
+
+def _short(path: str) -> str:
+    tokens = parse_path(path)
+    name = next((str(v) for t, v in reversed(tokens) if t == "name"), path)
+    sel = next((v for t, v in tokens if t in ("id", "index")), None)
+    return name if sel is None else f"{sel if isinstance(sel, str) else f'a{sel}'}.{name}"
+
+
+def _fmt_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "on" if v else "off"
+    if v is None:
+        return "none"
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, list):
+        return "x".join(_fmt_value(x) for x in v)
+    if isinstance(v, dict):
+        return "obj"
+    return str(v)
+
+
+def variant_id(params: dict[str, Any]) -> str:
+    """``slug-hash8``; depends only on the (path, value) pairs."""
+    canon = json.dumps({k: _norm(v) for k, v in params.items()}, sort_keys=True, separators=(",", ":"))
+    digest = hashlib.sha1(canon.encode()).hexdigest()[:8]
+    parts = [f"{_short(k)}-{_fmt_value(_norm(params[k]))}" for k in sorted(params)]
+    slug = re.sub(r"[^A-Za-z0-9._+-]+", "", "_".join(parts))[:SLUG_MAX].strip("_-.") or "base"
+    return f"{slug}-{digest}"
+
+
+def _draw(path: str, dist: Distribution, n: int, seed: int) -> list[Any]:
+    import numpy as np
+
+    rng = np.random.default_rng([seed, zlib.crc32(path.encode())])
+    if isinstance(dist, Uniform):
+        return [round(float(x), 6) for x in rng.uniform(*dist.uniform, size=n)]
+    if isinstance(dist, RandInt):
+        return [int(x) for x in rng.integers(dist.randint[0], dist.randint[1], size=n, endpoint=True)]
+    return [dist.choice[int(i)] for i in rng.integers(0, len(dist.choice), size=n)]
+
+
+def parameter_sets(spec: SweepSpec) -> list[dict[str, Any]]:
+    """Every grid point x every sample, as ``{path: value}`` (grid paths first)."""
+    keys = list(spec.grid)
+    points = [dict(zip(keys, combo, strict=True)) for combo in itertools.product(*spec.grid.values())]
+    samples: list[dict[str, Any]] = [{}]
+    if spec.samples is not None:
+        s = spec.samples
+        draws = {p: _draw(p, d, s.n, s.seed) for p, d in s.params.items()}
+        samples = [{p: draws[p][i] for p in s.params} for i in range(s.n)]
+    return [{k: _norm(v) for k, v in {**g, **smp}.items()} for g in points for smp in samples]
+
+
+class ParamError(ValueError):
+    """A parameter path or value that does not fit the scenario; ``path`` names it."""
+
+    def __init__(self, path: str, msg: str) -> None:
+        super().__init__(f"{path}: {msg}")
+        self.path = path
+
+
+def _culprit(err_loc: tuple, named: dict[str, tuple]) -> str | None:
+    """The label of the parameter whose scenario location contains the error's (or vice versa)."""
+    best = None
+    for label, loc in named.items():
+        if err_loc[: len(loc)] == loc or (err_loc and loc[: len(err_loc)] == err_loc):
+            if best is None or len(loc) > len(named[best]):
+                best = label
+    return best
+
+
+def expand(spec: SweepSpec, base: Scenario, sweep_file: str = "<sweep>") -> list[Variant]:
+    """Validated variants of ``base`` (duplicates, i.e. equal parameters, kept once)."""
+    sampled = spec.samples.params if spec.samples else {}
+    for sec, keys in (("set", spec.set), ("grid", spec.grid), ("samples", sampled)):
+        for k in keys:
+            try:
+                parse_path(k)
+            except ValueError as e:
+                raise SweepError(f"{sweep_file}: {sec}: {k}: {e}") from None
+    base_data = base.model_dump(mode="json", exclude_unset=True)
+    try:
+        fixed, set_locs = apply_params(base_data, {k: _norm(v) for k, v in spec.set.items()})
+    except ValueError as e:
+        raise SweepError(f"{sweep_file}: set: {e}") from None
+    section = {**dict.fromkeys(spec.grid, "grid"), **dict.fromkeys(sampled,
+                                                                   "samples")}
+    variants: dict[str, Variant] = {}
+    for params in parameter_sets(spec):
+        vid = variant_id(params)
+        if vid in variants:
+            continue
+        try:
+            data, locs = apply_params(fixed, params)
+        except ParamError as e:
+            raise SweepError(f"{sweep_file}: {section[e.path]}: {e}") from None
+        data["name"] = f"{base.name}[{vid}]"
+        try:
+            sc = Scenario.model_validate(data)
+        except ValidationError as e:
+            first = e.errors()[0]
+            loc = tuple(x for x in first["loc"] if not (isinstance(x, str) and x.startswith("function-")))
+            named = {f"set: {k} = {json.dumps(spec.set[k])}": v for k, v in set_locs.items()}
+            named.update({f"{section[k]}: {k} = {json.dumps(params[k])}": v for k, v in locs.items()})
+            who = _culprit(loc, named) or "variant " + ", ".join(f"{k} = {json.dumps(v)}" for k, v in params.items())
+            msg = _format_validation("", e, None).removeprefix(": ").removeprefix("(top level): ")
+            raise SweepError(f"{sweep_file}: {who}: {msg}") from None
+        variants[vid] = Variant(vid, params, sc)
+    return list(variants.values())
+
+
+def parse_sweep(text: str, path: str) -> SweepSpec:
+    try:
+        root = yaml.compose(text)
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark else path
+        raise SweepError(f"{where}: malformed YAML: {getattr(e, 'problem', None) or e}") from None
+    if not isinstance(data, dict):
+        raise SweepError(f"{path}: expected a mapping of sweep fields, got {type(data).__name__}")
+    try:
+        return SweepSpec.model_validate(data)
+    except ValidationError as e:
+        raise SweepError(_format_validation(path, e, root).replace(": (top level): ", ": ")) from None
+
+
+def load_sweep(path: str | Path) -> tuple[SweepSpec, Path, list[Variant]]:
+    """(spec, base scenario path, variants) of a sweep file; one-line ``SweepError`` when wrong."""
+    p = Path(path)
+    if not p.is_file():
+        raise SweepError(f"{p}: no such sweep file")
+    try:
+        text = p.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as e:
+        raise SweepError(f"{p}: cannot read: {e}") from None
+    spec = parse_sweep(text, str(p))
+    base_path = (p.parent / spec.scenario).resolve()
+    if not base_path.is_file():
+        raise SweepError(f"{p}: scenario: no such scenario file {base_path}")
+    base = load_scenario(base_path)
+    return spec, base_path, expand(spec, base, str(p))
+
+
+# --------------------------------------------------------------------------- running
+
+
+def one_line(exc: BaseException) -> str:
+    text = re.sub(r"\s*For further information visit \S+", "", " ".join(str(exc).split()))
+    text = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+    return text if len(text) <= 400 else text[:397] + "..."
+
+
+def warm_worker() -> None:
+    """Pool initializer: import the loop and the scorer before the first variant arrives."""
+    import sim.runner  # noqa: F401
+    import tools.score  # noqa: F401
+    import tools.scoring.intent  # noqa: F401
+    import tools.store  # noqa: F401
+    import tools.suite  # noqa: F401
+
+
+def run_variant(vid: str, scenario_path: str, run_dir: str, render: bool = False, db: str | None = None) -> dict:
+    """Run and score one variant (a worker's job); never raises: failures come back as data."""
+    from tools.suite import run_one
+
+    t0 = time.perf_counter()
+    try:
+        run_one(scenario_path, run_dir, render, db)
+        return {"id": vid, "ok": True, "seconds": round(time.perf_counter() - t0, 4), "pid": os.getpid()}
+    except Exception as e:  # one variant must not stop the sweep
+        log.info("variant %s failed: %s", vid, one_line(e))
+        return {"id": vid, "ok": False, "error": one_line(e), "seconds": round(time.perf_counter() - t0, 4),
+                "pid": os.getpid()}
+
+
+def _failed(vid: str, exc: BaseException) -> dict:
+    return {"id": vid, "ok": False, "error": one_line(exc), "seconds": None, "pid": None}
+
+
+def is_complete(run_dir: Path, scenario: Scenario) -> bool:
+    """``run.json`` complete for this very scenario (config hash) and ``metrics.json`` written."""
+    from tools.rundir import config_hash
+
+    try:
+        run = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return bool(run.get("complete")) and run.get("config_hash") == config_hash(scenario) and (
+        run_dir / "metrics.json").is_file()
+
+
+def forget_runs(db: Path, run_dirs: list[Path]) -> int:
+    """Delete the store's rows of runs written into ``run_dirs`` (stale or killed runs)."""
+    from tools.store import open_db
+
+    if not run_dirs:
+        return 0
+    conn = open_db(db)
+    try:
+        dirs = [str(d) for d in run_dirs]
+        marks = ",".join("?" * len(dirs))
+        ids = [r[0] for r in conn.execute(f"SELECT id FROM runs WHERE run_dir IN ({marks})", dirs)]
+        if not ids:
+            return 0
+        tables = [r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+        id_marks = ",".join("?" * len(ids))
+        with conn:
+            for t in tables:
+                cols = [c[1] for c in conn.execute(f"PRAGMA table_info({t})")]
+                if t != "runs" and "run_id" in cols:
+                    conn.execute(f"DELETE FROM {t} WHERE run_id IN ({id_marks})", ids)
+            conn.execute(f"DELETE FROM runs WHERE id IN ({id_marks})", ids)
+        return len(ids)
+    finally:
+        conn.close()
+
+
+def _run_pool(pool, jobs: list[dict], on_result: Callable[[dict], None]) -> None:
+    from concurrent.futures import as_completed
+
+    futures = {pool.submit(run_variant, **job): job["vid"] for job in jobs}
+    for f in as_completed(futures):
+        try:
+            r = f.result()
+        except Exception as e:  # a worker process died (BrokenProcessPool) or the job did not pickle
+            r = _failed(futures[f], e)
+        on_result(r)
+
+
+def new_pool(workers: int):
+    """A ``spawn`` process pool whose workers import the loop up front."""
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=warm_worker)
+
+
+def import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise SweepError("--ray needs the 'distributed' extra: pip install 'lookahead[distributed]'") from None
+    return ray
+
+
+def _run_ray(jobs: list[dict], address: str, workers: int, on_result: Callable[[dict], None]) -> None:
+    """One Ray task per variant (1 CPU each). ``address``: ``auto``, ``ray://...``, ``HOST:PORT``,
+    or ``local`` (start a local instance with ``workers`` CPUs). An already initialised Ray
+    (e.g. ``ray.init`` by the caller) is used as it is."""
+    ray = import_ray()
+    started = False
+    if not ray.is_initialized():
+        try:
+            if address == "local":
+                ray.init(num_cpus=workers, include_dashboard=False, logging_level=logging.WARNING)
+            else:
+                ray.init(address=address, logging_level=logging.WARNING)
+        except Exception as e:
+            raise SweepError(f"--ray {address}: cannot start or reach a Ray cluster ({one_line(e)})") from None
+        started = True
+    try:
+        task = ray.remote(num_cpus=1, max_retries=0)(run_variant)
+        refs = {task.remote(**job): job["vid"] for job in jobs}
+        pending = list(refs)
+        while pending:
+            ready, pending = ray.wait(pending, num_returns=1)
+            for ref in ready:
+                try:
+                    r = ray.get(ref)
+                except Exception as e:  # worker crash, task error
+                    r = _failed(refs[ref], e)
+                on_result(r)
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def _get(metrics: dict, dotted: str) -> Any:
+    node: Any = metrics
+    for k in dotted.split("."):
+        if not isinstance(node, dict):
+            return None
+        node = node.get(k)
+    return None if isinstance(node, dict | list) else node
+
+
+def key_metrics(metrics: dict, extra: list[str] | None = None) -> dict[str, Any]:
+    out = {k: _get(metrics, k) for k in (*KEY_METRICS, *(extra or []))}
+    exp = metrics.get("expectations") or []
+    out["expectations.passed"] = sum(bool(e.get("passed")) for e in exp)
+    out["expectations.total"] = len(exp)
+    return out
+
+
+def _write_variant(v: Variant, run_dir: Path) -> Path:
+    run_dir.mkdir(parents=True, exist_ok=True)
+    path = run_dir / "scenario.yaml"
+    data = v.scenario.model_dump(mode="json", exclude_unset=True)
+    data["name"] = v.scenario.name
+    path.write_text(f"# variant {v.id} of a sweep; parameters: {json.dumps(v.params)}\n"
+                    + yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    (run_dir / "variant.json").write_text(json.dumps({"id": v.id, "params": v.params}, indent=2) + "\n")
+    return path
+
+
+def run_sweep(
+    sweep_path: str | Path, out: Path, workers: int = 1, ray_address: str | None = None, render: bool = False,
+    db: Path | None = None, progress: Callable[[dict], None] | None = None, executor=None, report: bool = True,
+    variants: list[Variant] | None = None,
+) -> dict:
+    """Run the missing variants of a sweep and write ``summary.json`` (and the report).
+
+    ``executor``: an existing ``concurrent.futures`` pool to use (benchmarks keep one warm);
+    else ``ray_address`` (Ray), else a ``spawn`` pool of ``workers`` processes (in this
+    process when ``workers`` <= 1). ``progress(result)`` is called once per variant run.
+    ``variants`` overrides the sweep file's (a subset, e.g. in benchmarks).
+    """
+    from tools.rundir import prepare_dir
+    from tools.store import open_db
+
+    sweep_path = Path(sweep_path)
+    spec, base_path, expanded = load_sweep(sweep_path)
+    variants = expanded if variants is None else variants
+    out = prepare_dir(Path(out).resolve())
+    runs = out / RUNS_DIR
+    db = (Path(db) if db is not None else out / DB_FILE).resolve()
+    open_db(db).close()  # fail before running anything; creates the schema once
+    pending = [v for v in variants if not is_complete(runs / v.id, v.scenario)]
+    forget_runs(db, [runs / v.id for v in pending])
+    jobs = []
+    for v in pending:
+        d = runs / v.id
+        shutil.rmtree(d, ignore_errors=True)
+        jobs.append({"vid": v.id, "scenario_path": str(_write_variant(v, d)), "run_dir": str(d),
+                     "render": render, "db": str(db)})
+    results: dict[str, dict] = {}
+
+    def on_result(r: dict) -> None:
+        results[r["id"]] = r
+        if progress is not None:
+            progress(r)
+
+    t0 = time.perf_counter()
+    if not jobs:
+        backend = "none"
+    elif executor is not None:
+        backend = "pool"
+        _run_pool(executor, jobs, on_result)
+    elif ray_address:
+        backend = "ray"
+        _run_ray(jobs, ray_address, workers, on_result)
+    elif workers <= 1:
+        backend = "inline"
+        for job in jobs:
+            on_result(run_variant(**job))
+    else:
+        backend = "pool"
+        with new_pool(workers) as pool:
+            _run_pool(pool, jobs, on_result)
+    elapsed = time.perf_counter() - t0
+    summary = gather(out, spec, sweep_path, base_path, variants, results, render=render, db=db)
+    summary.update(backend=backend, workers=workers, elapsed_s=round(elapsed, 3))
+    from sim.records import jsonable
+
+    (out / SUMMARY_FILE).write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+    if report:
+        from tools.sweep_report import build_sweep_report
+
+        build_sweep_report(out)
+    return summary
+
+
+def _ratio(num: float, den: float) -> float | None:
+    return round(num / den, 4) if den else None
+
+
+def sweep_totals(per_variant: list[dict]) -> dict:
+    """Sweep totals pooled from the variants' ``metrics.json`` (O(variants), nothing re-read).
+
+    ``intent``, ``danger``, ``closed_loop``, ``expectations``: ``tools.scoring.intent.intent_totals``
+    (exact, as a suite's). ``detection``: gt / tp / fp summed, precision and recall recomputed;
+    ``tracking``: tp / fp / fn / id_switches / fragmentations / mostly_* summed, MOTA
+    recomputed; ``estimation``: the sample counts. Metrics that do not pool from per-run
+    numbers (AP50, IDF1, HOTA, MOTP, error medians) are left out here -- a suite's
+    ``score_suite`` re-scores every frame of every run in one process, which a sweep of
+    hundreds of variants on a cluster must not do -- and ``mean_over_variants`` gives the
+    plain mean of every ``KEY_METRICS`` number instead.
+    """
+    from tools.scoring.intent import intent_totals
+
+    def total(section: str, key: str) -> int:
+        return int(sum((m.get(section) or {}).get(key) or 0 for m in per_variant))
+
+    det = {k: total("detection", k) for k in ("gt", "tp", "fp", "ignored", "frames")}
+    det.update(precision=_ratio(det["tp"], det["tp"] + det["fp"]), recall=_ratio(det["tp"], det["gt"]))
+    trk = {k: total("tracking", k) for k in ("tp", "fp", "fn", "id_switches", "fragmentations", "mostly_tracked",
+                                             "partially_tracked", "mostly_lost", "num_gt_ids")}
+    gt = trk["tp"] + trk["fn"]
+    trk["mota"] = round(1.0 - (trk["fn"] + trk["fp"] + trk["id_switches"]) / gt, 4) if gt else None
+    est = {k: total("estimation", k) for k in ("n_range", "n_speed", "n_ttc", "n", "n_initializing")}
+    means = {}
+    for k in KEY_METRICS:
+        vals = [v for v in (_get(m, k) for m in per_variant) if isinstance(v, int | float)]
+        means[k] = round(sum(float(v) for v in vals) / len(vals), 4) if vals else None
+    out = {"detection": {"precision": det.pop("precision"), "recall": det.pop("recall"), **det},
+           "tracking": {"mota": trk.pop("mota"), **trk}, "estimation": est}
+    out.update(intent_totals(per_variant))
+    out["mean_over_variants"] = means
+    return out
+
+
+def gather(
+    out: Path, spec: SweepSpec, sweep_path: Path, base_path: Path, variants: list[Variant],
+    results: dict[str, dict], render: bool, db: Path,
+) -> dict:
+    """``summary.json`` content from the run directories on disk (done now or earlier)."""
+    from tools.scoring.io import read_metrics
+
+    entries: dict[str, dict] = {}
+    done: list[tuple[Path, dict]] = []
+    extra = spec.report.metrics or []
+    for v in variants:
+        d = out / RUNS_DIR / v.id
+        r = results.get(v.id)
+        entry: dict[str, Any] = {"dir": f"{RUNS_DIR}/{v.id}", "params": v.params, "skipped": r is None,
+                                 "seconds": None if r is None else r.get("seconds")}
+        if is_complete(d, v.scenario):
+            metrics = read_metrics(d)
+            run = json.loads((d / "run.json").read_text(encoding="utf-8"))
+            entry.update(status="done", summary=run.get("summary"), metrics=key_metrics(metrics, extra))
+            done.append((d, metrics))
+        else:
+            error = (r or {}).get("error") or ("the run ended without a complete run directory" if r else
+                                               "not run")
+            entry.update(status="failed", error=error)
+        entries[v.id] = entry
+    failed = [k for k, e in entries.items() if e["status"] == "failed"]
+    totals = sweep_totals([m for _, m in done]) if done else {}
+
+    def rel(p: Path) -> str:
+        try:
+            return str(p.relative_to(out))
+        except ValueError:
+            return str(p)
+
+    return {
+        "sweep": spec.name or sweep_path.stem,
+        "description": spec.description,
+        "sweep_file": str(sweep_path),
+        "scenario": str(base_path),
+        "parameters": spec.parameters(),
+        "set": spec.set,
+        "report": spec.report.model_dump(),
+        "render": render,
+        "db": rel(db),
+        "counts": {"variants": len(variants), "done": len(done), "failed": len(failed),
+                   "ran": len(results), "skipped": len(variants) - len(results)},
+        "failed": {k: entries[k]["error"] for k in failed},
+        "variants": entries,
+        "totals": totals,
+    }
