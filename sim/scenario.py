@@ -558,6 +558,26 @@ class Scenario(Strict):
         return self
 
 
+def with_detector(scenario: Scenario, kind: str | None, model: str | Path | None = None) -> Scenario:
+    """``scenario`` with its detector replaced (``kind`` gt | onnx | auto; ``model`` an ONNX file).
+
+    ``None`` for both returns ``scenario`` unchanged (the CLI's ``--detector`` / ``--model``).
+    """
+    if kind is None and model is None:
+        return scenario
+    spec = scenario.perception.detector
+    update: dict[str, Any] = {}
+    if kind is not None:
+        if kind not in ("auto", "gt", "onnx"):
+            raise ScenarioError(f"--detector: expected gt, onnx or auto, got {kind!r}")
+        update["kind"] = kind
+    if model is not None:
+        update["model"] = str(model)
+        update.setdefault("kind", "onnx")
+    perception = scenario.perception.model_copy(update={"detector": spec.model_copy(update=update)})
+    return scenario.model_copy(update={"perception": perception})
+
+
 class ScenarioError(ValueError):
     """A scenario that cannot be used; ``str()`` is one line naming file, field and problem."""
 

@@ -36,7 +36,10 @@ frame and repeat, plus ``fps``) and ``<tracker>/<sequence>``; ``ratios``;
 ``accuracy`` {tracker: {sequence: mota, idf1, hota, ...}} (TrackEval via
 ``evaluate_mot``, first repeat -- both trackers are deterministic);
 ``accuracy_pooled`` {tracker: {mot15 | sim: mota, idf1}} over summed counts;
-``sequences``; ``inputs`` {tracker: {sequence: frames, detections fed}};
+``sort_reference`` {``accuracy`` {sequence: ...}, ``accuracy_pooled`` {mot15: ...}}: the
+SORT reference tracker (``tools.sort_reference.Sort()``, its defaults, fed every
+detection, untimed) on the MOT15 sequences, the baseline ours must match or beat;
+``sequences`` (MOT15 frame rate and length from each ``seqinfo.ini``); ``inputs`` {tracker: {sequence: frames, detections fed}};
 ``repeats``; ``deepsort_config``.
 """
 
@@ -57,7 +60,7 @@ from perception.detections import Detections
 from perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections
 from perception.tracker import Tracker, TrackerConfig
 from tools.bench import case, machine
-from tools.mot_eval import evaluate_mot, mot_tracker_config, normalise_scores
+from tools.mot_eval import evaluate_mot, mot_tracker_config, normalise_scores, read_seqinfo
 
 log = logging.getLogger(__name__)
 
@@ -90,20 +93,35 @@ class TrackSequence:
 
 # --------------------------------------------------------------------- sequences
 def mot15_sequence(name: str, data_dir: Path = MOT15_DIR) -> TrackSequence:
-    """A MOT15 sequence: normalised public detections, scored against its gt.txt."""
-    info = json.loads((data_dir / name / "seqinfo.json").read_text())
+    """A MOT15 sequence: normalised public detections, scored against its gt.txt.
+
+    Frame rate and length come from its ``seqinfo.ini``, as in ``lookahead track``.
+    """
+    info = read_seqinfo(data_dir / name / "seqinfo.ini")
     gt = read_mot(data_dir / name / "gt.txt")
     det = normalise_scores(read_mot(data_dir / name / "det.txt"))
-    n = int(info["length"])
+    n = int(info.length)
 
     def score(outs: list[FrameOut]) -> dict:
         rows = [from_boxes(f, ids, xyxy) for f, (ids, xyxy, _) in enumerate(outs, start=1)]
         return evaluate_mot(gt, MotRecords.concat(rows), num_frames=n)
 
     return TrackSequence(
-        name=name, source="mot15", frame_rate=float(info["frame_rate"]), config=mot_tracker_config(),
+        name=name, source="mot15", frame_rate=float(info.frame_rate), config=mot_tracker_config(),
         dets=[to_detections(rows) for _, rows in iter_frames(det, n)], score=score,
     )
+
+
+def sort_outputs(seq: TrackSequence) -> list[FrameOut]:
+    """The SORT reference (``tools.sort_reference.Sort()``, defaults) over the sequence, untimed."""
+    from tools.sort_reference import Sort
+
+    sort = Sort()
+    outs = []
+    for dets in seq.dets:
+        res = sort.update(np.column_stack([dets.xyxy, dets.score]))
+        outs.append((res[:, 4].astype(np.int64), res[:, :4], np.zeros(len(res), dtype=np.int64)))
+    return outs
 
 
 class _Collector:
@@ -325,6 +343,8 @@ def bench_track(
             cases[f"{name}/{s.name}"] = case(ms[name][s.name])
     metrics = {t: {s.name: s.score(runs[t][s.name].outs) for s in seqs} for t in TRACKERS}
     sources = sorted({s.source for s in seqs})
+    mot = [s for s in seqs if s.source == "mot15"]
+    sort_metrics = {s.name: s.score(sort_outputs(s)) for s in mot}
     result = {
         "machine": machine(),
         "cases": cases,
@@ -333,6 +353,10 @@ def bench_track(
         "accuracy_pooled": {
             t: {src: _pooled([metrics[t][s.name] for s in seqs if s.source == src]) for src in sources}
             for t in TRACKERS
+        },
+        "sort_reference": {
+            "accuracy": {n: _accuracy(m) for n, m in sort_metrics.items()},
+            "accuracy_pooled": {"mot15": _pooled(list(sort_metrics.values()))} if mot else {},
         },
         "sequences": {
             s.name: {"source": s.source, "frames": len(s.dets), "detections": s.num_detections,
@@ -376,14 +400,20 @@ def print_track_bench(result: dict, console) -> None:
         console.print(f"{name}: {result['cases'][name]['fps']:.1f} fps", highlight=False)
     table = Table(title="accuracy (TrackEval)")
     table.add_column("sequence")
-    for name in TRACKERS:
+    for name in (*TRACKERS, "sort"):
         table.add_column(f"{name} MOTA", justify="right")
         table.add_column(f"{name} IDF1", justify="right")
     acc = result["accuracy"]
-    rows = [(seq, [acc[t][seq] for t in TRACKERS]) for seq in acc[TRACKERS[0]]]
+    ref = result.get("sort_reference", {})
+    rows = [(seq, [acc[t][seq] for t in TRACKERS] + [ref.get("accuracy", {}).get(seq)]) for seq in acc[TRACKERS[0]]]
     pooled = result.get("accuracy_pooled", {})
-    rows += [(f"pooled {src}", [pooled[t][src] for t in TRACKERS]) for src in pooled.get(TRACKERS[0], {})]
+    rows += [
+        (f"pooled {src}", [pooled[t][src] for t in TRACKERS] + [ref.get("accuracy_pooled", {}).get(src)])
+        for src in pooled.get(TRACKERS[0], {})
+    ]
     for label, ms in rows:
-        cells = [f"{m[k]:.3f}" if m[k] is not None else "-" for m in ms for k in ("mota", "idf1")]
+        cells = [
+            f"{m[k]:.3f}" if m is not None and m[k] is not None else "-" for m in ms for k in ("mota", "idf1")
+        ]
         table.add_row(label, *cells)
     console.print(table)

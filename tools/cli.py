@@ -62,27 +62,37 @@ def _progress() -> Progress:
 def run_scenario(
     scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
     video: Path | None = None, rerun_file: Path | None = None, lang: str = "en", rerun_live: bool = False,
+    detector: str | None = None, model: Path | None = None,
 ) -> dict:
-    """Run one scenario into ``out``; returns the run summary."""
+    """Run one scenario into ``out``; returns the run summary.
+
+    The runner (renderer, detector model) is built before any sink, so a bad model
+    or renderer fails before an output file is touched.
+    """
     from sim.runner import Runner
-    from sim.scenario import load_scenario
+    from sim.scenario import load_scenario, with_detector
     from tools.rundir import RunDirWriter
 
-    scenario = load_scenario(scenario_path)
-    sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
-    if db is not None:  # opened (and checked) before anything runs
-        from tools.store import SqliteStore
+    scenario = with_detector(load_scenario(scenario_path), detector, model)
+    runner = Runner(scenario, render=render, renderer_backend=renderer)
+    try:
+        sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
+        if db is not None:  # opened (and checked) before anything runs
+            from tools.store import SqliteStore
 
-        sinks.append(SqliteStore(db, scenario, run_dir=out, source=str(scenario_path)))
-    if video is not None:
-        from tools.video import VideoSink
+            sinks.append(SqliteStore(db, scenario, run_dir=out, source=str(scenario_path)))
+        if video is not None:
+            from tools.video import VideoSink
 
-        sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
-    if rerun_file is not None or rerun_live:
-        from tools.rerun_sink import RerunSink
+            sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
+        if rerun_file is not None or rerun_live:
+            from tools.rerun_sink import RerunSink
 
-        sinks.append(RerunSink(rerun_file, spawn=rerun_live))
-    runner = Runner(scenario, sinks=sinks, render=render, renderer_backend=renderer)
+            sinks.append(RerunSink(rerun_file, spawn=rerun_live))
+    except BaseException:
+        runner.close()
+        raise
+    runner.sinks = sinks
     with _progress() as prog:
         task = prog.add_task(scenario.name, total=1.0)
         summary = runner.run(progress=lambda f: prog.update(task, completed=f))
@@ -102,6 +112,8 @@ def run(
     rerun_file: Annotated[Path | None, typer.Option("--rerun", help="rerun .rrd recording (e.g. RUN_DIR/run.rrd)")] = None,
     lang: Annotated[str, typer.Option("--lang", help="video labels: en | zh")] = "en",
     rerun_live: Annotated[bool, typer.Option("--rerun-live", help="stream to a live rerun viewer (spawned)")] = False,
+    detector: Annotated[str | None, typer.Option(help="override the scenario's detector: gt | onnx | auto")] = None,
+    model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
@@ -109,7 +121,7 @@ def run(
     if lang not in ("en", "zh"):
         raise typer.BadParameter("--lang must be en or zh")
     summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
-                           rerun_file=rerun_file, lang=lang, rerun_live=rerun_live)
+                           rerun_file=rerun_file, lang=lang, rerun_live=rerun_live, detector=detector, model=model)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
@@ -333,6 +345,35 @@ def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> Non
 
 
 @app.command()
+@user_errors
+def replay(
+    source: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR", help="recorded run or suite directory")],
+    out: Annotated[Path, typer.Option("--out", help="run (or suite) directory to write")],
+    config: Annotated[Path | None, typer.Option(help="YAML of tracker / estimator / intent / alerts overrides")] = None,
+    jitter: Annotated[float, typer.Option(min=0, help="perturb: per-edge std, fraction of box size")] = 0.0,
+    bottom_noise: Annotated[float, typer.Option(min=0, help="perturb: extra bottom-edge std, fraction of height")] = 0.0,
+    correlation: Annotated[float, typer.Option(min=0, max=0.99, help="perturb: AR(1) coefficient of the edge noise")] = 0.0,
+    scale_bias: Annotated[float, typer.Option(min=-0.4, max=0.4, help="perturb: grow every box by this fraction")] = 0.0,
+    miss_rate: Annotated[float, typer.Option(min=0, max=1, help="perturb: drop a detection with this probability")] = 0.0,
+    class_flip: Annotated[float, typer.Option(min=0, max=1, help="perturb: plausible other class, probability")] = 0.0,
+    seed: Annotated[int, typer.Option(min=0, help="perturb: random stream")] = 0,
+) -> None:
+    """Re-run tracker, estimator, intent and alerts on a run's recorded detections; write and score a new run."""
+    from tools.replay import Perturbation, replay_command
+
+    perturb = Perturbation(jitter=jitter, bottom_sigma=bottom_noise, correlation=correlation, scale_bias=scale_bias,
+                           miss_rate=miss_rate, class_flip=class_flip, seed=seed)
+    result = replay_command(source, out, perturb, config)
+    if "totals" in result:
+        print_suite(result)
+    else:
+        m = result["metrics"]
+        console.print(f"{source} -> {out}: {result['replay']['frames']} frames, MOTA {m['tracking']['mota']}, "
+                      f"intent macro-F1 {m['intent']['macro_f1']}, AEB-divergent frames "
+                      f"{result['replay']['aeb_divergent_frames']}", highlight=False)
+
+
+@app.command()
 def query(
     db: Annotated[Path, typer.Argument(help="SQLite store written by --db")],
     what: Annotated[str, typer.Argument(help="alerts | tracks | objects | summary")],
@@ -451,7 +492,7 @@ def eval_detector(
 def track(
     det: Annotated[Path, typer.Option("--det", help="MOTChallenge det.txt")],
     out: Annotated[Path, typer.Option("--out", help="tracks file to write (MOTChallenge format)")],
-    frame_rate: Annotated[float, typer.Option(help="frames per second of the sequence")] = 10.0,
+    frame_rate: Annotated[float | None, typer.Option(help="frames per second; default: frameRate of the sequence's seqinfo.ini, else 30")] = None,
 ) -> None:
     """Run the tracker over a MOTChallenge detection file."""
     from tools.mot_cli import track_command

@@ -80,6 +80,19 @@ def test_accuracy_finite(bench: tuple[dict, Path]) -> None:
             assert math.isfinite(pooled["mota"]) and math.isfinite(pooled["idf1"])
 
 
+def test_sort_reference_accuracy(bench: tuple[dict, Path]) -> None:
+    """SORT's accuracy is in the JSON for the MOT15 sequences; ours matches or beats it there."""
+    result, _ = bench
+    ref = result["sort_reference"]
+    assert set(ref["accuracy"]) == {MOT_SEQ}  # MOT15 only
+    assert set(ref["accuracy_pooled"]) == {"mot15"}
+    sort, ours = ref["accuracy"][MOT_SEQ], result["accuracy"]["ours"][MOT_SEQ]
+    assert result["sequences"][MOT_SEQ]["frame_rate"] == 25.0  # from its seqinfo.ini
+    for key in ("mota", "idf1", "hota"):
+        assert math.isfinite(sort[key]) and ours[key] >= sort[key], (key, ours, sort)
+    assert ref["accuracy_pooled"]["mot15"] == {k: sort[k] for k in ("mota", "idf1")}
+
+
 def test_deepsort_inputs_match_detections() -> None:
     dets = Detections(
         xyxy=np.array([[10.0, 20.0, 30.0, 60.0], [0.0, 0.0, 5.0, 5.0]]),
@@ -101,3 +114,4 @@ def test_print_track_bench(bench: tuple[dict, Path]) -> None:
     print_track_bench(result, Console(file=buf, width=160))
     text = buf.getvalue()
     assert "fps_over_deepsort" in text and MOT_SEQ in text and "cut_in" in text
+    assert "sort MOTA" in text

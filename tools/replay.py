@@ -1,0 +1,346 @@
+"""Replay: re-run tracker -> estimator -> intent -> alerts on a recorded run directory.
+
+A run directory's ``ticks.jsonl`` keeps, per camera frame, the detections the
+tracker saw, the ego odometry, the time, and the ground truth; ``run.json``
+keeps the scenario (camera, tracker / estimator / intent / alert settings).
+``replay_run`` feeds those detections through a fresh ``sim.runner.PerceptionStack``
+-- the very object the closed loop uses, with a detector that hands back the
+recorded boxes -- and writes a new run directory: ``run.json`` (the source's,
+plus a ``replay`` entry), ``ticks.jsonl`` (every line of the source with
+``detections``, ``tracks``, ``assessments`` and ``alerts`` replaced, everything
+else -- ground truth, ego, collisions -- copied) and ``timings.jsonl`` (the
+replayed stages only). ``lookahead score`` scores it exactly as a recorded run;
+``replay_run`` does so unless ``score=False``. A suite directory (with
+``summary.json``) is replayed run by run into a suite directory with its own
+``summary.json`` (totals recomputed as ``lookahead suite`` does).
+
+Use: record an expensive (rendered) run once, then iterate on perception and
+intent in seconds. With unchanged code, a replay reproduces the recorded
+tracks, assessments and alerts: ids, states, labels, risks and alert events
+exactly; floats to the recording's rounding -- ``ticks.jsonl`` keeps boxes to
+0.01 px and odometry to 1e-4, so the replayed filters see inputs within half
+that of the original ones (tested in ``tests/tools/test_replay.py``).
+
+Limitations:
+* Open loop. The ego motion, the world and the detections are the recording's.
+  When the replayed stack's alerts would have changed what the AEB did (or a
+  different ego motion would have changed what the camera saw), the replay is
+  an approximation. ``run.json`` ``replay.aeb_divergent_frames`` counts frames
+  where an AEB fed by the replayed alerts (same ``AebConfig``) would brake and
+  the recorded ego did not, or the reverse; 0 when AEB is off (as in the smoke
+  suite) or when nothing changed.
+* Detector latency and noise are whatever the recording had; only the
+  perturbation below is added. Detector timings are not replayed.
+
+Perturbation (``Perturbation``, all off by default; seeded, per frame and
+detection in file order): per-edge jitter (std ``jitter`` x box width / height),
+extra bottom-edge noise (std ``bottom_sigma`` x box height: feet, wheels,
+shadows), both optionally AR(1)-correlated over frames per source object
+(``correlation`` = frame-to-frame coefficient; real detectors' errors persist),
+a box scale bias (``scale_bias``: every box grown by that fraction about its
+centre), misses (``miss_rate``, independent per detection) and class flips
+(``class_flip``: to a plausible other class, ``gt_detector.CONFUSABLE``).
+It stands in for a neural detector on pixels when checking that estimation and
+intent degrade gracefully, not only under the ``gt`` detector's noise model.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from intent.config import IntentConfig
+from perception.detections import CLASSES, Detections
+from perception.detectors.base import DetectorTruth
+from perception.frame import EgoOdometry, Frame
+from sim.records import jsonable
+from sim.scenario import Scenario
+from tools.rundir import OutputError, prepare_dir
+
+log = logging.getLogger(__name__)
+
+REPLAY_STAGES = ("preprocess", "detect", "track", "estimate", "intent", "tick")
+
+
+class Perturbation(BaseModel):
+    """Extra detector noise added to the recorded detections (fractions of box size, probabilities)."""
+
+    model_config = ConfigDict(extra="forbid")
+    jitter: float = Field(0.0, ge=0, description="per-edge std as a fraction of box width / height")
+    bottom_sigma: float = Field(0.0, ge=0, description="extra bottom-edge std as a fraction of box height")
+    correlation: float = Field(0.0, ge=0, lt=1, description="AR(1) frame-to-frame coefficient of the edge noise")
+    scale_bias: float = Field(0.0, gt=-0.5, lt=0.5, description="every box grown by this fraction about its centre")
+    miss_rate: float = Field(0.0, ge=0, le=1, description="probability of dropping a detection")
+    class_flip: float = Field(0.0, ge=0, le=1, description="probability of a plausible other class")
+    seed: int = Field(0, ge=0, description="random stream (with the run's seed)")
+
+    @property
+    def active(self) -> bool:
+        return any(v for k, v in self.model_dump().items() if k != "seed")
+
+
+class Perturber:
+    """Applies a ``Perturbation`` frame by frame (state: the AR(1) noise per source object)."""
+
+    def __init__(self, config: Perturbation, run_seed: int, width: int, height: int) -> None:
+        from perception.detectors.gt_detector import _CONF_COUNT, _CONF_TABLE
+
+        self.config, self.width, self.height = config, width, height
+        self.rng = np.random.default_rng([config.seed, run_seed, 0x5EA1])
+        self._noise: dict[int, np.ndarray] = {}  # source id -> last (4,) unit noise
+        self._table, self._count = _CONF_TABLE, _CONF_COUNT
+
+    def __call__(self, dets: Detections) -> Detections:
+        cfg, rng = self.config, self.rng
+        n = len(dets)
+        # fixed draw sizes per frame: the stream does not depend on the values
+        u_miss, u_flip, u_pick = rng.random(n), rng.random(n), rng.random(n)
+        white = rng.standard_normal((n, 5))
+        if n == 0:
+            return dets
+        b = dets.xyxy.copy()
+        w, h = b[:, 2] - b[:, 0], b[:, 3] - b[:, 1]
+        rho = cfg.correlation
+        z = np.empty((n, 5))
+        for i, sid in enumerate(dets.source_id.tolist()):
+            prev = self._noise.get(sid) if sid >= 0 else None
+            z[i] = white[i] if prev is None else rho * prev + np.sqrt(1.0 - rho * rho) * white[i]
+            if sid >= 0:
+                self._noise[sid] = z[i]
+        b += z[:, :4] * np.stack([w, h, w, h], axis=1) * cfg.jitter
+        b[:, 3] += z[:, 4] * h * cfg.bottom_sigma
+        if cfg.scale_bias:
+            g = 0.5 * cfg.scale_bias * np.stack([-w, -h, w, h], axis=1)
+            b += g
+        b = np.concatenate([np.minimum(b[:, :2], b[:, 2:]), np.maximum(b[:, :2], b[:, 2:])], axis=1)
+        b[:, [0, 2]] = np.clip(b[:, [0, 2]], 0, self.width)
+        b[:, [1, 3]] = np.clip(b[:, [1, 3]], 0, self.height)
+        cls = dets.class_id.copy()
+        ok = (cls >= 0) & (cls < len(CLASSES))
+        flip = ok & (u_flip < cfg.class_flip)
+        if np.any(flip):
+            c = cls[flip]
+            pick = np.minimum((u_pick[flip] * self._count[c]).astype(np.int64), self._count[c] - 1)
+            cls[flip] = self._table[c, pick]
+        keep = u_miss >= cfg.miss_rate
+        out = Detections(xyxy=b, score=dets.score, class_id=cls, source_id=dets.source_id)
+        return out[keep]
+
+
+class RecordedDetector:
+    """A ``Detector`` that returns the detections set for the current frame."""
+
+    def __init__(self) -> None:
+        self.next = Detections.empty()
+
+    def detect(self, image: np.ndarray | None, truth: DetectorTruth | None = None) -> Detections:
+        return self.next
+
+
+def _detections(obj: dict | None) -> Detections:
+    if not obj:
+        return Detections.empty()
+    n = len(obj.get("xyxy") or [])
+    src = obj.get("source_id")
+    return Detections(
+        xyxy=np.array(obj["xyxy"], dtype=np.float64).reshape(n, 4),
+        score=np.array(obj["score"], dtype=np.float64),
+        class_id=np.array(obj["class_id"], dtype=np.int64),
+        source_id=None if src is None else np.array(src, dtype=np.int64),
+    )
+
+
+def _odometry(ego: dict) -> EgoOdometry:
+    def f(key: str) -> float:
+        v = ego.get(key)
+        return 0.0 if v is None else float(v)
+
+    return EgoOdometry(speed=f("speed"), accel=f("accel"), yaw_rate=f("yaw_rate"))
+
+
+def load_scenario_of(run_dir: Path) -> tuple[dict, Scenario]:
+    """``run.json`` of a run directory and the scenario it was run with."""
+    path = Path(run_dir) / "run.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file (not a run directory?)")
+    run = json.loads(path.read_text(encoding="utf-8"))
+    return run, Scenario.model_validate(run["scenario"])
+
+
+def replay_run(
+    run_dir: Path,
+    out_dir: Path,
+    perturb: Perturbation | None = None,
+    overrides: dict | None = None,
+    score: bool = True,
+) -> dict:
+    """Replay ``run_dir`` into ``out_dir``; returns the replay summary (and ``metrics`` when scored).
+
+    ``overrides``: ``{"tracker": {...}, "estimator": {...}, "intent": {...},
+    "alerts": {...}}`` merged over the scenario's settings (experiments; the
+    replay's ``run.json`` carries the resulting scenario).
+    """
+    from sim.aeb import Aeb
+    from sim.runner import PerceptionStack, camera_from_scenario
+
+    run_dir, out_dir = Path(run_dir), Path(out_dir)
+    ticks_in = run_dir / "ticks.jsonl"
+    if not ticks_in.is_file():
+        raise FileNotFoundError(f"{ticks_in}: no such file (not a run directory?)")
+    if out_dir.resolve() == run_dir.resolve():
+        raise OutputError(f"{out_dir}: the replay must go to another directory than its source")
+    run, scenario = load_scenario_of(run_dir)
+    scenario = _with_overrides(scenario, overrides or {})
+    perturb = perturb or Perturbation()
+    camera = camera_from_scenario(scenario)
+    p = scenario.perception
+    from perception.estimator import EstimatorConfig
+    from perception.tracker import TrackerConfig
+
+    intent_config = IntentConfig().with_overrides(scenario.intent)
+    detector = RecordedDetector()
+    stack = PerceptionStack(
+        detector, camera, scenario.camera.rate, intent_config, TrackerConfig(**p.tracker),
+        EstimatorConfig(**p.estimator), alert_config=scenario.alerts,
+    )
+    aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
+    sim_dt = 1.0 / scenario.rate
+    perturber = Perturber(perturb, scenario.seed, camera.width, camera.height) if perturb.active else None
+
+    prepare_dir(out_dir)
+    divergent, first_divergence, frames = 0, None, 0
+    t_start = time.perf_counter()
+    with ticks_in.open(encoding="utf-8") as fin, \
+            (out_dir / "ticks.jsonl").open("w", encoding="utf-8") as fout, \
+            (out_dir / "timings.jsonl").open("w", encoding="utf-8") as ftim:
+        for line in fin:
+            if not line.strip():
+                continue
+            rec = json.loads(line)
+            t = float(rec["t"])
+            ego = rec.get("ego") or {}
+            dets = _detections(rec.get("detections"))
+            if perturber is not None:
+                dets = perturber(dets)
+            detector.next = dets
+            frame = Frame(tick=int(rec.get("tick", 0)), t=t, camera=camera, odometry=_odometry(ego),
+                          index=int(rec.get("frame", frames)))
+            timings: dict[str, float] = {}
+            t0 = time.perf_counter()
+            dets, tracks, est, assessment, alerts = stack.process(frame, None, timings)
+            timings["tick"] = (time.perf_counter() - t0) * 1e3
+            if aeb is not None:
+                would_brake = aeb.command(t - sim_dt) is not None
+                if would_brake != bool(ego.get("brake")):
+                    divergent += 1
+                    first_divergence = t if first_divergence is None else first_divergence
+                crit, nearest = stack.critical_in_path(tracks, est, assessment)
+                aeb.decide(t, crit, nearest, frame.odometry.speed)
+            rec["detections"] = dets.to_dict()
+            rec["tracks"] = {**tracks.to_dict(), **est.to_dict()}
+            rec["assessments"] = assessment.to_dict()
+            rec["alerts"] = [a.to_dict() for a in alerts]
+            fout.write(json.dumps(jsonable(rec), separators=(",", ":")) + "\n")
+            ftim.write(json.dumps({k: round(timings[k], 3) for k in REPLAY_STAGES if k in timings}) + "\n")
+            frames += 1
+    replay = {
+        "source": str(run_dir),
+        "frames": frames,
+        "perturbation": perturb.model_dump() if perturb.active else None,
+        "overrides": overrides or None,
+        "aeb": aeb is not None,
+        "aeb_divergent_frames": divergent,
+        "aeb_first_divergence_t": first_divergence,
+        "elapsed_s": round(time.perf_counter() - t_start, 3),
+    }
+    if aeb is not None and divergent:
+        log.warning("%s: AEB fed by the replayed alerts differs from the recorded ego on %d frame(s) from "
+                    "t=%.2f s: the replay is open-loop there", run_dir, divergent, first_divergence)
+    out_run = {**run, "scenario": scenario.model_dump(mode="json"), "replay": replay}
+    (out_dir / "run.json").write_text(json.dumps(jsonable(out_run), indent=2, sort_keys=True) + "\n")
+    (out_dir / "metrics.json").unlink(missing_ok=True)
+    result = {"name": scenario.name, "dir": str(out_dir), "summary": run.get("summary") or {}, "replay": replay}
+    if score:
+        from tools.score import score_run
+
+        result["metrics"] = score_run(out_dir)
+    return result
+
+
+def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
+    unknown = set(overrides) - {"tracker", "estimator", "intent", "alerts"}
+    if unknown:
+        raise ValueError(f"replay overrides: unknown section(s) {sorted(unknown)}; "
+                         "expected tracker, estimator, intent, alerts")
+    if not overrides:
+        return scenario
+    from intent.config import _deep_merge
+
+    data = scenario.model_dump(mode="json")
+    for key in ("tracker", "estimator"):
+        if key in overrides:
+            data["perception"][key] = _deep_merge(data["perception"].get(key) or {}, overrides[key])
+    if "intent" in overrides:
+        data["intent"] = _deep_merge(data.get("intent") or {}, overrides["intent"])
+    if "alerts" in overrides:
+        data["alerts"] = _deep_merge(data.get("alerts") or {}, overrides["alerts"])
+    return Scenario.model_validate(data)
+
+
+def is_suite_dir(path: Path) -> bool:
+    return (Path(path) / "summary.json").is_file() and not (Path(path) / "ticks.jsonl").is_file()
+
+
+def replay_suite(
+    suite_dir: Path, out: Path, perturb: Perturbation | None = None, overrides: dict | None = None,
+    progress=None,
+) -> dict:
+    """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like ``lookahead suite``."""
+    from tools.score import score_suite
+    from tools.scoring.intent import intent_totals
+
+    suite_dir, out = Path(suite_dir), Path(out)
+    src = json.loads((suite_dir / "summary.json").read_text(encoding="utf-8"))
+    prepare_dir(out)
+    results = []
+    for name, r in src["runs"].items():
+        res = replay_run(suite_dir / r["dir"], out / r["dir"], perturb, overrides)
+        res["dir_name"] = r["dir"]
+        results.append(res)
+        if progress:
+            progress(name)
+    totals = score_suite([Path(r["dir"]) for r in results])
+    totals.update(intent_totals([r["metrics"] for r in results]))
+    summary = {
+        "suite": src.get("suite"),
+        "render": src.get("render"),
+        "replay": {"source": str(suite_dir), "perturbation": (perturb or Perturbation()).model_dump()
+                   if perturb is not None and perturb.active else None, "overrides": overrides or None},
+        "runs": {r["name"]: {"dir": r["dir_name"], "summary": r["summary"], "metrics": r["metrics"],
+                             "replay": r["replay"]} for r in results},
+        "totals": totals,
+    }
+    (out / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+    return summary
+
+
+def replay_command(source: Path, out: Path, perturb: Perturbation, config: Path | None = None) -> dict:
+    """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides."""
+    overrides = None
+    if config is not None:
+        from tools.suite import read_yaml
+
+        overrides = read_yaml(config, "replay config")
+        if not isinstance(overrides, dict):
+            raise ValueError(f"{config}: expected a mapping of tracker / estimator / intent / alerts overrides")
+    source = Path(source)
+    if not source.exists():
+        raise FileNotFoundError(f"{source}: no such run or suite directory")
+    if is_suite_dir(source):
+        return replay_suite(source, out, perturb, overrides)
+    return replay_run(source, out, perturb, overrides)
