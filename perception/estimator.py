@@ -203,6 +203,10 @@ log = logging.getLogger(__name__)
 _DV = 0.5  # px, finite-difference step for d(ray)/dv
 _MIN_DEPTH = 0.1  # m, nearest camera-forward distance accepted for a measurement
 _BEARING_ONLY_SIGMA = 100.0  # m, range std of a bearing-only measurement
+_CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square with 2 degrees of freedom
+_MOTION = 6  # x, y, v_x, v_y, a_x, a_y
+_BIAS = {"ground": 6, "height": 7, "width": 8}  # relative depth biases of the cues (state indices)
+_DIM = _MOTION + len(_BIAS)
 
 
 class ClassPrior(BaseModel):
@@ -297,6 +301,7 @@ class EstimatorConfig(BaseModel):
     imm_quiet_accel_scale: float = Field(
         0.5, gt=0, description="'imm': the quiet cv model's accel std, times the class's accel_sigma"
     )
+    jerk_scale: float = Field(1.0, gt=0, description="scale of every class's jerk_sigma (experiments)")
     imm_quiet_s: float = Field(2.0, gt=0, description="'imm': mean time in the quiet model (s)")
     imm_manoeuvre_s: float = Field(1.0, gt=0, description="'imm': mean time in the manoeuvre (ca) model (s)")
     imm_init_quiet: float = Field(0.8, ge=0, le=1, description="'imm': a new filter's quiet-model probability")
@@ -310,6 +315,22 @@ class EstimatorConfig(BaseModel):
         2.0, ge=0, description="... a side or bottom edge also within this many of its noise stds (edge_sigma_rel x size)"
     )
     position_sigma_floor: float = Field(0.1, ge=0, description="model error added to x and y (m)")
+    bias_states: bool = Field(
+        True, description="the motion filter also estimates each cue's relative depth bias (priors, kerbs)"
+    )
+    contact_bias: Literal["state", "noise"] = Field(
+        "noise", description="the contact height's error (kerbs): a bias state, or noise of the ground cue"
+    )
+    contact_bias_tau_s: float = Field(2.0, gt=0, description="correlation time of the ground contact's bias (s)")
+    size_bias_tau_s: float = Field(30.0, gt=0, description="correlation time of the height / width priors' errors (s)")
+    bias_sigma_floor: float = Field(0.01, ge=0, description="least prior std of a relative cue bias")
+    filter_noise: Literal["white", "total"] = Field(
+        "white", description="the motion filter's measurement noise: the frame-to-frame part of the "
+        "range error (priors, offsets and kerbs stay with a track) or all of it"
+    )
+    side_cut_min_extent: float = Field(
+        1.0, ge=0, description="a box cut at a side bounds the range only, if the footprint's x extent is this long (m)"
+    )
     init_from_box_rates: bool = Field(False, description="fuse the tracker's box rates into a new filter's velocity")
     init_velocity_sigma: float = Field(8.0, gt=0, description="std of the box-rate velocity (m/s)")
     heading_min_speed: float = Field(
@@ -330,6 +351,14 @@ class EstimatorConfig(BaseModel):
     settle_updates: int = Field(5, ge=1, description="updates before velocity enters the history")
     min_speed_accel: float = Field(0.5, ge=0, description="accel is NaN below this ground speed (m/s)")
     min_speed_yaw: float = Field(1.0, ge=0, description="yaw rate is NaN below this ground speed (m/s)")
+    noise_adapt: bool = Field(
+        True, description="scale the measurement noise so the innovations match it (median NIS) ..."
+    )
+    noise_adapt_window: int = Field(100, ge=1, description="... over this many recent updates ...")
+    noise_adapt_min_samples: int = Field(10, ge=1, description="... once there are this many ...")
+    noise_adapt_rate: float = Field(0.3, ge=0, le=1, description="... moving by (ratio ^ this) per frame ...")
+    noise_scale_min: float = Field(0.25, gt=0, description="... within [min, max] of the modelled noise")
+    noise_scale_max: float = Field(4.0, gt=0, description="... (variance factor)")
     settle_range_rate_sigma: float = Field(
         1.0, ge=0, description="a track's range rate has converged once its std is below this (m/s) ..."
     )
@@ -351,7 +380,9 @@ class Measurement:
     the bottom); ``x_width`` / ``sigma_width``: width prior (vehicles seen
     end-on, at the face; NaN otherwise); ``cov``: (N, 2, 2) covariance
     of (x, lateral). ``x_max``: upper bound of the range of boxes cut at the
-    bottom (NaN otherwise). The lateral as a function of the range: lateral = m_y + (x - m_x)
+    bottom (NaN otherwise). ``side_bound``: cut at a side with a footprint extending
+    ``side_cut_min_extent`` or more along x: ``x`` is the visible part's face, an upper
+    bound, with ``sigma`` widened by the extent's uniform std (docstring, step 7). The lateral as a function of the range: lateral = m_y + (x - m_x)
     ``tan_y`` + ``lateral_offset`` (``tan_y`` the bearing of the edge or ray it comes from,
     ``lateral_offset`` 0 or a half-width prior); ``sigma_bearing`` the bearing's std (rad);
     ``var_y_extra``: lateral variance not due to x or bearing (m^2).
@@ -367,10 +398,19 @@ class Measurement:
     sigma_width: np.ndarray
     lateral: np.ndarray
     half_width: np.ndarray
+    sigma_white: np.ndarray
+    face_ground: np.ndarray
+    face_height: np.ndarray
+    face_width: np.ndarray
+    var_ground: np.ndarray
+    var_height: np.ndarray
+    var_width: np.ndarray
+    cov_ground_height: np.ndarray
     cov: np.ndarray
     cut_bottom: np.ndarray
     cut_top: np.ndarray
     x_max: np.ndarray
+    side_bound: np.ndarray
     tan_y: np.ndarray
     sigma_bearing: np.ndarray
     var_y_extra: np.ndarray
@@ -546,6 +586,37 @@ class _MotionFilter:
             self.mu /= self.mu.sum()
         self._combine()
 
+    def nis_model(self, z: np.ndarray, r: np.ndarray, model) -> float:
+        """NIS of ``z`` for a measurement model ``model(x) -> (h(x), H)`` at the mixture."""
+        h, hj = model(self.x)
+        innov = z - h
+        try:
+            return float(innov @ np.linalg.solve(hj @ self.P @ hj.T + r, innov))
+        except np.linalg.LinAlgError:
+            return np.inf
+
+    def update_model(self, z: np.ndarray, r: np.ndarray, model) -> None:
+        """Extended Kalman update of every model (linearised at its own state), then the mode
+        probabilities, as ``update``."""
+        m = len(self.mu)
+        loglik = np.zeros(m)
+        for j in range(m):
+            p = self.Ps[j]
+            h, hj = model(self.xs[j])
+            innov = z - h
+            s = hj @ p @ hj.T + r
+            k = np.linalg.solve(s, hj @ p).T  # P H^T S^-1
+            self.xs[j] = self.xs[j] + k @ innov
+            ikh = np.eye(len(p)) - k @ hj
+            self.Ps[j] = ikh @ p @ ikh.T + k @ r @ k.T  # Joseph form
+            loglik[j] = -0.5 * (innov @ np.linalg.solve(s, innov) + np.log(np.linalg.det(s)))
+        if m > 1:
+            lw = np.log(np.maximum(self.mu, 1e-300)) + loglik
+            w = np.exp(lw - lw.max())
+            self.mu = np.maximum(w / w.sum(), 1e-6)
+            self.mu /= self.mu.sum()
+        self._combine()
+
     def finite(self) -> bool:
         return bool(np.all(np.isfinite(self.xs)) and np.all(np.isfinite(self.Ps)) and np.all(np.isfinite(self.mu)))
 
@@ -581,7 +652,7 @@ class Estimator:
             key: np.array([getattr(p, key) for p in table])
             for key in ClassPrior.model_fields
         }
-        self._dim = 6
+        self._dim = _DIM
         self.reset()
 
     def reset(self) -> None:
@@ -591,6 +662,8 @@ class Estimator:
         self._speed = 0.0
         self._yaw_rate = 0.0
         self._ego_yaw = 0.0  # integrated ego heading since the first frame (rad)
+        self.noise_scale = 1.0  # measurement-noise scale learnt from the innovations (``noise_adapt``)
+        self._nis: deque = deque(maxlen=self.config.noise_adapt_window)
 
     @property
     def num_filters(self) -> int:
@@ -666,7 +739,10 @@ class Estimator:
         xg_all = gp[:, 0, 0]
         dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
+        vw_g = sig_g**2  # white: edge noise and pitching change from frame to frame
         sig_g = np.hypot(sig_g, (xg_all - mx) * self._prior_of(cid, "contact_height_sigma") / mz)
+        if cfg.contact_bias == "noise":  # kerbs come and go: frame-to-frame noise, not a state
+            vw_g = sig_g**2
         g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > _MIN_DEPTH)
         x_g = np.where(g_ok, xg_all, np.nan)
         sig_g = np.where(g_ok, sig_g, np.nan)
@@ -679,6 +755,7 @@ class Estimator:
         xc_h = H / ds
         sig_ds = np.hypot(dsdv_t * sv, dsdv_b * sv)
         sig_h = xc_h * np.hypot(sH / H, sig_ds / ds)
+        vw_h = (xc_h * sig_ds / ds) ** 2  # white: the two edges (the prior's error is the track's own)
         h_ok = ok & ~cut_top & ~cut_bottom & (ds > 0) & (xc_h > _MIN_DEPTH) & np.isfinite(sig_h)
         x_h = np.where(h_ok, mx + xc_h, np.nan)
         sig_h = np.where(h_ok, sig_h, np.nan)
@@ -690,6 +767,7 @@ class Estimator:
         xc_w = W / dt
         sig_dt = np.sqrt(2.0) * np.hypot(cfg.contact_sigma_px, cfg.edge_sigma_rel * w_px) / cam.fx
         sig_w = xc_w * np.hypot(sW / W, sig_dt / dt)
+        vw_w = (xc_w * sig_dt / dt) ** 2
         w_cue = self._prior_of(cid, "width_cue").astype(bool)
         w_ok = (
             ok & w_cue & ~cut_left & ~cut_right & ~cut_bottom & (t_r < 0.0) & (t_l > 0.0)
@@ -727,6 +805,11 @@ class Estimator:
                 w_sum > 0, (np.where(gh_ok, xf_gh, 0.0) * w_gh + np.nan_to_num(x_w) * w_w) / w_sum, np.nan
             )
             sig = np.where(w_sum > 0, 1.0 / np.sqrt(w_sum), np.nan)
+            # the part of that error which changes from frame to frame (the rest -- priors,
+            # contact offset, kerbs -- stays with the track): what the motion filter averages
+            vw_gh = a_g**2 * np.nan_to_num(vw_g) + a_h**2 * np.nan_to_num(vw_h) + 2.0 * a_g * a_h * c_gh
+            var_white = (w_gh**2 * vw_gh + w_w**2 * np.nan_to_num(vw_w)) / w_sum**2
+            sig_white = np.where(w_sum > 0, np.sqrt(np.clip(var_white, 0.0, sig**2)), np.nan)
 
         # 4. boxes cut at the bottom: top ray on z = H, bounded by the bottom image row
         x_max = np.full(n, np.nan)
@@ -734,12 +817,14 @@ class Estimator:
             x, sig, x_h, sig_h, x_max = self._cut_bottom(
                 cut_bottom, cut_top, x, sig, x_h, sig_h, xg_all, s_t, dsdv_t, ds, sv, H, sH
             )
+            sig_white = np.where(cut_bottom, sig, sig_white)  # the top ray: all of it, conservatively
 
         # 5. lateral offset and half-width at the fused range (the bottom-centre ray at the contact)
         xc = x - mx
         front = xc > _MIN_DEPTH
         x = np.where(front, x, np.nan)
         sig = np.where(front, sig, np.nan)
+        sig_white = np.where(front, sig_white, np.nan)
         t_c = tan_y[:, 0]
         y_c, y_l, y_r = my + xc * t_c, my + xc * t_l, my + xc * t_r
         hw = 0.5 * (y_l - y_r)
@@ -765,6 +850,16 @@ class Estimator:
                 np.where(end_on, a, b) for a, b in zip(e, (lat, hw, tan_eff, offset, s_bear, extra), strict=True)
             )
             lat = np.where(np.isfinite(x), lat, np.nan)
+
+        # 7. cut at a side with a long footprint along x: the nearest part may be out of view, up
+        # to the footprint's x extent nearer than the visible part -- the measured face is an upper
+        # bound, its std widened by the extent's uniform std
+        extent = self._prior_of(cid, "length") * cos_h + W * np.sqrt(1.0 - cos_h**2)
+        side_bound = (cut_left ^ cut_right) & ~cut_bottom & (extent >= cfg.side_cut_min_extent) & np.isfinite(x)
+        if np.any(side_bound):
+            sig = np.where(side_bound, np.hypot(sig, extent / np.sqrt(12.0)), sig)
+            sig_white = np.where(side_bound, sig, sig_white)  # the hidden extent changes as it moves
+        sig_f = sig_white if cfg.filter_noise == "white" else sig
         return Measurement(
             x=x,
             sigma=sig,
@@ -776,10 +871,19 @@ class Estimator:
             sigma_width=sig_w,
             lateral=lat,
             half_width=np.where(np.isfinite(lat), hw, np.nan),
-            cov=self._position_cov(xc, sig, tan_eff, s_bear, extra),
+            sigma_white=sig_white,
+            face_ground=np.where(g_ok & front, xg_f, np.nan),
+            face_height=np.where(h_ok & front, xh_f, np.nan),
+            face_width=np.where(w_ok & front, x_w, np.nan),
+            var_ground=vw_g + (cfg.contact_offset_rel_sigma * (x_g - xg_f)) ** 2,
+            var_height=vw_h + (cfg.contact_offset_rel_sigma * (x_h - xh_f)) ** 2,
+            var_width=vw_w,
+            cov_ground_height=np.where(both, dxg_dv * dxh_dv * (cfg.edge_sigma_rel * h_px) ** 2, 0.0),
+            cov=self._position_cov(xc, sig_f, tan_eff, s_bear, extra),
             cut_bottom=cut_bottom,
             cut_top=cut_top,
             x_max=x_max,
+            side_bound=side_bound,
             tan_y=tan_eff,
             sigma_bearing=s_bear,
             var_y_extra=extra,
@@ -962,8 +1066,15 @@ class Estimator:
                 z, r = z0, r0
                 if trk is not None and meas.cut_bottom[i]:
                     z, r = self._cut_bottom_update(trk, meas, i)
-                if trk is None or not self._update(trk, z, r):  # a new filter starts from the box itself
-                    trk = self._new_filter(z0, r0, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
+                lam = self.noise_scale
+                plain = not (meas.cut_bottom[i] or meas.side_bound[i])
+                sample = trk is not None and trk.updates >= cfg.settle_updates and plain
+                joint = self._joint(meas, i, lam) if cfg.bias_states and plain else None
+                ok = trk is not None and (
+                    self._update_joint(trk, *joint, sample) if joint is not None else self._update(trk, z, r * lam, sample)
+                )
+                if not ok:  # a new filter starts from the box
+                    trk = self._new_filter(z0, r0 * lam, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
                     self._filters[tid] = trk
                 trk.class_id, trk.last_update = cls, t
                 a, hw_i = cfg.half_width_alpha, float(meas.half_width[i])
@@ -983,13 +1094,15 @@ class Estimator:
             if not trk.settled and trk.last_update == t:
                 rr_i = abs(float(trk.kf.x[2]) - speed + yaw_rate * float(trk.kf.x[1]))
                 limit = max(cfg.settle_range_rate_sigma, cfg.settle_range_rate_rel * rr_i)
-                trk.settled = bool(np.sqrt(max(p_rr[i], 0.0)) <= limit) or t - trk.born >= cfg.settle_max_s - 1e-9
+                converged = np.sqrt(max(p_rr[i], 0.0)) <= limit and not meas.side_bound[i]  # a bound is no rate
+                trk.settled = bool(converged) or t - trk.born >= cfg.settle_max_s - 1e-9
             settled[i] = float(trk.settled)
             hw[i] = trk.half_width
             hist[i] = trk.history if trk.updates >= cfg.settle_updates else None
 
         for tid in [k for k, f in self._filters.items() if t - f.last_update > cfg.max_coast_s]:
             del self._filters[tid]
+        self._adapt_noise()
         return self._outputs(state, p_xx, p_rr, settled, hw, hist, speed, yaw_rate)
 
     def _cut_bottom_update(self, trk: _TrackFilter, meas: Measurement, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -1055,10 +1168,11 @@ class Estimator:
         cid = np.array([class_id])
         models = []
         names = {"cv": ("cv",), "ca": ("ca",), "imm": ("cv", "ca")}[cfg.motion_model]
+        fb, qb = self._bias_process(dt, class_id)
         for name in names:
-            f = np.eye(6)
+            f = np.eye(_DIM)
             f[0, 2] = f[1, 3] = dt  # p += v dt
-            q = np.zeros((6, 6))
+            q = np.zeros((_DIM, _DIM))
             if name == "cv":
                 f[4, 4] = f[5, 5] = 0.0  # no acceleration
                 sa = float(self._prior_of(cid, "accel_sigma")[0])
@@ -1066,14 +1180,36 @@ class Estimator:
                     sa *= cfg.imm_quiet_accel_scale
                 q[:4, :4] = Q_discrete_white_noise(2, dt=dt, var=sa**2, block_size=2, order_by_dim=False)
                 if cfg.motion_model == "imm":  # acceleration unknown to this model, not zero: mixing
-                    q[4:, 4:] = np.eye(2) * float(self._prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
+                    q[4:6, 4:6] = np.eye(2) * float(self._prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
             else:
                 f[2, 4] = f[3, 5] = dt  # v += a dt
                 f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
-                dens = float(self._prior_of(cid, "jerk_sigma")[0]) ** 2
-                q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
+                dens = (float(self._prior_of(cid, "jerk_sigma")[0]) * cfg.jerk_scale) ** 2
+                q[:6, :6] = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
+            f[6:, 6:], q[6:, 6:] = fb, qb
             models.append((f, q))
         return models
+
+    def _bias_sigmas(self, class_id: int) -> np.ndarray:
+        """Prior std of the relative depth bias of the ground, height and width cues (class priors)."""
+        cid, mz = np.array([class_id]), self.camera.mount[2]
+        p = lambda key: float(self._prior_of(cid, key)[0])  # noqa: E731
+        floor = self.config.bias_sigma_floor
+        contact = p("contact_height_sigma") / mz if self.config.contact_bias == "state" else 0.0
+        return np.hypot(floor, np.array([
+            contact,  # a contact z above the road: depth x m_z / (m_z - z)
+            p("height_sigma") / p("height"),
+            p("width_sigma") / p("width"),
+        ]))
+
+    def _bias_process(self, dt: float, class_id: int) -> tuple[np.ndarray, np.ndarray]:
+        """Gauss-Markov (Ornstein-Uhlenbeck) biases: stationary std from the class prior, correlation
+        time ``contact_bias_tau_s`` (kerbs come and go) and ``size_bias_tau_s`` (sizes stay)."""
+        cfg = self.config
+        sig = self._bias_sigmas(class_id)
+        tau = np.array([cfg.contact_bias_tau_s, cfg.size_bias_tau_s, cfg.size_bias_tau_s])
+        a = np.exp(-dt / tau)
+        return np.diag(a), np.diag(sig**2 * (1.0 - a**2))
 
     def _transition(self, dt: float) -> np.ndarray:
         """IMM Markov matrix over ``dt``: mean sojourn ``imm_quiet_s`` / ``imm_manoeuvre_s``."""
@@ -1088,7 +1224,8 @@ class Estimator:
         chord = speed * dt * np.sinc(theta / (2.0 * np.pi))
         shift = chord * np.array([np.cos(theta / 2.0), np.sin(theta / 2.0)])
         rot = _rot(-theta)
-        jac = np.kron(np.eye(self._dim // 2), rot)
+        jac = np.eye(_DIM)
+        jac[:_MOTION, :_MOTION] = np.kron(np.eye(_MOTION // 2), rot)  # the biases are frame-free
         self._ego_yaw += theta
         models: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
         trans = self._transition(dt)
@@ -1098,18 +1235,92 @@ class Estimator:
                 models[trk.class_id] = self._process(dt, trk.class_id)
             trk.kf.predict(models[trk.class_id], trans)
 
-    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> bool:
-        """Kalman update; False (filter to restart) when the innovation fails the NIS gate."""
+    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray, sample: bool = False) -> bool:
+        """Kalman update; False (filter to restart) when the innovation fails the NIS gate.
+        ``sample``: the NIS joins the noise-scale statistic (``_adapt_noise``)."""
         nis = trk.kf.nis(z, r)
         if not nis <= self.config.reinit_nis:
             log.debug("track filter restarted: NIS %.1f", nis)
             return False
+        if sample and np.isfinite(nis):
+            self._nis.append(nis)
         try:
             trk.kf.update(z, r)
         except np.linalg.LinAlgError:
             return False
         trk.updates += 1
         return trk.kf.finite()
+
+    def _joint(self, meas: Measurement, i: int, lam: float):
+        """Measurement model of box ``i`` for the cue-bias filter: each range cue's face depth
+        d_c = (x - m_x)(1 + b_c) with its frame-to-frame noise (the shared bottom edge
+        correlating ground and height), and the bearing y - (x - m_x) tan = m_y + offset.
+        None when the box has no range cue. Returns (z, R, model)."""
+        mx, my = self.camera.mount[0], self.camera.mount[1]
+        floor2 = self.config.position_sigma_floor**2
+        cues = [(k, f[i], v[i]) for k, f, v in (
+            ("ground", meas.face_ground, meas.var_ground),
+            ("height", meas.face_height, meas.var_height),
+            ("width", meas.face_width, meas.var_width),
+        ) if np.isfinite(f[i]) and np.isfinite(v[i])]
+        if not cues or not np.isfinite(meas.tan_y[i]):
+            return None
+        n = len(cues) + 1
+        z = np.array([f - mx for _, f, _ in cues] + [my + meas.lateral_offset[i]])
+        r = np.zeros((n, n))
+        for k, (_, _, v) in enumerate(cues):
+            r[k, k] = v + floor2
+        names = [k for k, _, _ in cues]
+        if "ground" in names and "height" in names:
+            a, b = names.index("ground"), names.index("height")
+            c = min(float(meas.cov_ground_height[i]), 0.95 * np.sqrt(r[a, a] * r[b, b]))
+            r[a, b] = r[b, a] = c
+        xc = max(float(meas.x[i]) - mx, _MIN_DEPTH)
+        r[-1, -1] = (xc * meas.sigma_bearing[i]) ** 2 + meas.var_y_extra[i] + floor2
+        r *= lam
+        idx = [_BIAS[k] for k in names]
+        tan = float(meas.tan_y[i])
+
+        def model(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            d = x[0] - mx
+            hj = np.zeros((n, _DIM))
+            for k, b in enumerate(idx):
+                hj[k, 0], hj[k, b] = 1.0 + x[b], d
+            hj[-1, 0], hj[-1, 1] = -tan, 1.0
+            return np.array([d * (1.0 + x[b]) for b in idx] + [x[1] - d * tan]), hj
+
+        return z, r, model
+
+    def _update_joint(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray, model, sample: bool = False) -> bool:
+        """``_update`` with a measurement model (``_joint``)."""
+        nis = trk.kf.nis_model(z, r, model)
+        if not nis <= self.config.reinit_nis:
+            log.debug("track filter restarted: NIS %.1f", nis)
+            return False
+        if sample and np.isfinite(nis):
+            self._nis.append(nis * 2.0 / len(z))  # per 2 degrees of freedom, roughly
+        try:
+            trk.kf.update_model(z, r, model)
+        except np.linalg.LinAlgError:
+            return False
+        trk.updates += 1
+        return trk.kf.finite()
+
+    def _adapt_noise(self) -> None:
+        """Scale the modelled measurement noise so the innovations are consistent with it.
+
+        The median NIS of the last ``noise_adapt_window`` updates of running filters
+        against the chi-square(2) median (2 ln 2): a median well above it means the boxes
+        are noisier than modelled, below it quieter. The scale moves by (ratio ^
+        ``noise_adapt_rate``) per frame within [``noise_scale_min``, ``noise_scale_max``]
+        (the median, not the mean: manoeuvres and the occasional bad box barely move it).
+        """
+        cfg = self.config
+        if not cfg.noise_adapt or len(self._nis) < cfg.noise_adapt_min_samples:
+            return
+        ratio = float(np.median(self._nis)) / _CHI2_2_MEDIAN
+        lam = self.noise_scale * ratio**cfg.noise_adapt_rate
+        self.noise_scale = float(np.clip(lam, cfg.noise_scale_min, cfg.noise_scale_max))
 
     def _new_filter(
         self,
@@ -1140,17 +1351,18 @@ class Estimator:
                 meas = rel + np.array([speed - yaw_rate * z[1], yaw_rate * z[0]])
                 var1 = cfg.init_velocity_sigma**2
                 ground, var = meas * var0 / (var0 + var1), var0 * var1 / (var0 + var1)
-        x = np.zeros(6)
+        x = np.zeros(_DIM)
         x[:4] = np.concatenate([z, ground])
-        p = np.zeros((6, 6))
+        p = np.zeros((_DIM, _DIM))
         p[:2, :2] = r
         p[2:4, 2:4] = np.eye(2) * var
+        p[6:, 6:] = np.diag(self._bias_sigmas(cls) ** 2)
         mu = {"cv": [1.0], "ca": [1.0], "imm": [cfg.imm_init_quiet, 1.0 - cfg.imm_init_quiet]}[cfg.motion_model]
         if cfg.motion_model != "cv":
-            p[4:, 4:] = np.eye(2) * cfg.init_accel_sigma**2
+            p[4:6, 4:6] = np.eye(2) * cfg.init_accel_sigma**2
         kf = _MotionFilter(x, p, np.array(mu))
         if cfg.motion_model == "imm":  # the quiet model carries no acceleration
-            kf.Ps[0, 4:, :] = kf.Ps[0, :, 4:] = 0.0
+            kf.Ps[0, 4:6, :] = kf.Ps[0, :, 4:6] = 0.0
             kf._combine()
         return _TrackFilter(kf=kf, class_id=cls, last_update=t, half_width=np.nan, born=t)
 

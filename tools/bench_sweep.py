@@ -10,8 +10,10 @@ main process is warmed by one untimed 2-variant sweep (scoring, totals). So the
 timed wall time is the sweep itself, not process start-up or imports.
 
 Cases: ``sweep_1_worker`` / ``sweep_2_workers`` (wall ms per whole sweep, one
-sample per repeat) and ``variant_1_worker`` / ``variant_2_workers`` (ms per variant
-inside a worker). Ratio ``two_workers_over_one`` = median wall(2) / median wall(1).
+sample per repeat), ``variant_1_worker`` / ``variant_2_workers`` (wall ms per
+variant inside a worker) and ``variant_cpu_*`` (CPU ms of the worker process per
+variant: equal CPU but longer wall with 2 workers means the workers were starved
+of CPU by other load, not slowed by each other). Ratio ``two_workers_over_one`` = median wall(2) / median wall(1).
 """
 
 from __future__ import annotations
@@ -59,6 +61,7 @@ def bench_sweep(sweep_path: Path, variants: int | None = None, repeats: int = 1,
     chosen = expanded if variants is None else expanded[:variants]
     walls: dict[int, list[float]] = {n: [] for n in worker_counts}
     per_variant: dict[int, list[float]] = {n: [] for n in worker_counts}
+    cpu: dict[int, list[float]] = {n: [] for n in worker_counts}
     failed = 0
     with tempfile.TemporaryDirectory(prefix="lookahead-bench-sweep-") as tmp:
         pools = {n: new_pool(n) for n in worker_counts}
@@ -75,6 +78,7 @@ def bench_sweep(sweep_path: Path, variants: int | None = None, repeats: int = 1,
                                   variants=chosen)
                     walls[n].append((time.perf_counter() - t0) * 1e3)
                     per_variant[n] += [v["seconds"] * 1e3 for v in s["variants"].values() if v.get("seconds")]
+                    cpu[n] += [v["cpu_seconds"] * 1e3 for v in s["variants"].values() if v.get("cpu_seconds")]
                     failed += s["counts"]["failed"]
         finally:
             for p in pools.values():
@@ -85,6 +89,7 @@ def bench_sweep(sweep_path: Path, variants: int | None = None, repeats: int = 1,
         label = name.get(n, f"{n}_workers")
         cases[f"sweep_{label}"] = case(walls[n])
         cases[f"variant_{label}"] = case(per_variant[n])
+        cases[f"variant_cpu_{label}"] = case(cpu[n])
     ratios = {}
     if 1 in walls and 2 in walls:
         ratios["two_workers_over_one"] = round(statistics.median(walls[2]) / statistics.median(walls[1]), 4)

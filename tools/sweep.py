@@ -571,14 +571,16 @@ def run_variant(vid: str, scenario_path: str, run_dir: str, render: bool = False
     """Run and score one variant (a worker's job); never raises: failures come back as data."""
     from tools.suite import run_one
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
+    result: dict[str, Any] = {"id": vid, "ok": True}
     try:
         run_one(scenario_path, run_dir, render, db)
-        return {"id": vid, "ok": True, "seconds": round(time.perf_counter() - t0, 4), "pid": os.getpid()}
     except Exception as e:  # one variant must not stop the sweep
         log.info("variant %s failed: %s", vid, one_line(e))
-        return {"id": vid, "ok": False, "error": one_line(e), "seconds": round(time.perf_counter() - t0, 4),
-                "pid": os.getpid()}
+        result.update(ok=False, error=one_line(e))
+    result.update(seconds=round(time.perf_counter() - t0, 4), cpu_seconds=round(time.process_time() - c0, 4),
+                  pid=os.getpid())
+    return result
 
 
 def _failed(vid: str, exc: BaseException) -> dict:
@@ -831,7 +833,8 @@ def gather(
         d = out / RUNS_DIR / v.id
         r = results.get(v.id)
         entry: dict[str, Any] = {"dir": f"{RUNS_DIR}/{v.id}", "params": v.params, "skipped": r is None,
-                                 "seconds": None if r is None else r.get("seconds")}
+                                 "seconds": None if r is None else r.get("seconds"),
+                                 "cpu_seconds": None if r is None else r.get("cpu_seconds")}
         if is_complete(d, v.scenario):
             metrics = read_metrics(d)
             run = json.loads((d / "run.json").read_text(encoding="utf-8"))

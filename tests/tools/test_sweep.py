@@ -106,6 +106,7 @@ grid:
     ("grid:\n  ego.sped: [1]\n", ["grid: ego.sped", "unknown field 'sped'"]),
     ("grid:\n  actors[nobody].speed: [1]\n", ["actors[nobody].speed", "no item with id 'nobody'", "target"]),
     ("grid:\n  ego.speed: [10, 99]\n", ["grid: ego.speed = 99", "ego.speed", "less than or equal to 60"]),
+    ("grid:\n  perception.detector.noise.miss_rate: [0.1, 1.5]\n", ["grid: perception.detector.noise.miss_rate = 1.5"]),
     ("grid:\n  ego..speed: [1]\n", ["malformed parameter path"]),
     ("grdi:\n  ego.speed: [1]\n", ["s.yaml:", "grdi: unknown field"]),
     ("samples: {n: 2, params: {ego.speed: {uniform: [5]}}}\n", ["s.yaml:2", "samples.params"]),
@@ -122,8 +123,8 @@ def test_bad_sweep_is_one_clear_line(tmp_path, text, needles):
 
 
 def test_pool_sweep_with_failing_variants_store_summary_and_report(tmp_path):
-    # miss_rate 1.5 passes the scenario model but the gt detector refuses it at run time
-    sw = short_sweep(tmp_path, "  ego.speed: [8, 12]\n  perception.detector.noise.miss_rate: [0.0, 1.5]\n")
+    # an onnx detector passes the scenario model but refuses to run without rendering
+    sw = short_sweep(tmp_path, "  ego.speed: [8, 12]\n  perception.detector.kind: [gt, onnx]\n")
     out = tmp_path / "out"
     seen = []
     s = run_sweep(sw, out, workers=2, progress=seen.append)
@@ -132,10 +133,11 @@ def test_pool_sweep_with_failing_variants_store_summary_and_report(tmp_path):
     on_disk = json.loads((out / "summary.json").read_text())
     assert on_disk["counts"] == s["counts"] and on_disk["totals"]["closed_loop"]["runs"] == 2
     for vid, v in on_disk["variants"].items():
-        bad = v["params"]["perception.detector.noise.miss_rate"] == 1.5
+        bad = v["params"]["perception.detector.kind"] == "onnx"
         assert v["status"] == ("failed" if bad else "done")
         if bad:
-            assert "miss_rate" in v["error"] and "\n" not in v["error"] and on_disk["failed"][vid] == v["error"]
+            assert "needs rendered frames" in v["error"] and "\n" not in v["error"]
+            assert on_disk["failed"][vid] == v["error"]
         else:
             assert v["metrics"]["closed_loop.collision"] is False and v["summary"]["frames"] == 20
             assert (out / v["dir"] / "scenario.yaml").is_file()
@@ -240,5 +242,6 @@ def test_bench_env_and_bench_sweep_json(tmp_path):
     result = bench_sweep(sw, variants=2)
     _check_bench(result, "two_workers_over_one")
     assert result["variants"] == 2 and result["failed_variants"] == 0
-    assert set(result["cases"]) == {"sweep_1_worker", "sweep_2_workers", "variant_1_worker", "variant_2_workers"}
+    assert set(result["cases"]) == {f"{k}_{n}" for k in ("sweep", "variant", "variant_cpu")
+                                    for n in ("1_worker", "2_workers")}
     assert len(result["worker_pids"]["2"]) == 2

@@ -150,13 +150,19 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
     history: list[dict] = []
     t_start = time.perf_counter()
     step = 0
+    from concurrent.futures import ThreadPoolExecutor
+
+    prefetch = ThreadPoolExecutor(1)  # the next batch is cut (numpy/OpenCV, GIL released) during this step
+    batches = [order_rng.permutation(n) for _ in range(cfg.epochs)]
+    plan = [(e, p[b * cfg.batch:(b + 1) * cfg.batch]) for e, p in enumerate(batches) for b in range(steps_per_epoch)]
+    pending = prefetch.submit(sampler.batch, plan[0][1])
     for epoch in range(cfg.epochs):
         net.train()
-        perm = order_rng.permutation(n)
         sums = np.zeros(3)
-        for b in range(steps_per_epoch):
-            idx = perm[b * cfg.batch:(b + 1) * cfg.batch]
-            x, t = sampler.batch(idx)
+        for _ in range(steps_per_epoch):
+            x, t = pending.result()
+            if step + 1 < len(plan):
+                pending = prefetch.submit(sampler.batch, plan[step + 1][1])
             xt = torch.from_numpy(x).float().div_(255.0).contiguous(memory_format=torch.channels_last)
             tt = {k: torch.from_numpy(v) for k, v in t.items()}
             for g in opt.param_groups:
@@ -184,6 +190,7 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
             net.to(memory_format=torch.channels_last)
         log.info("epoch %s", entry)
         history.append(entry)
+    prefetch.shutdown()
     seconds = time.perf_counter() - t_start
     export_onnx(net, out, model_metadata(cfg, str(data_dir), {"train_seconds": round(seconds, 1)}))
     return {"config": asdict(cfg), "images": n, "seconds": round(seconds, 1), "history": history, "model": str(out)}
