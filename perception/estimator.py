@@ -204,9 +204,6 @@ _DV = 0.5  # px, finite-difference step for d(ray)/dv
 _MIN_DEPTH = 0.1  # m, nearest camera-forward distance accepted for a measurement
 _BEARING_ONLY_SIGMA = 100.0  # m, range std of a bearing-only measurement
 _CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square with 2 degrees of freedom
-_MOTION = 6  # x, y, v_x, v_y, a_x, a_y
-_BIAS = {"ground": 6, "height": 7, "width": 8}  # relative depth biases of the cues (state indices)
-_DIM = _MOTION + len(_BIAS)
 
 
 class ClassPrior(BaseModel):
@@ -315,15 +312,6 @@ class EstimatorConfig(BaseModel):
         2.0, ge=0, description="... a side or bottom edge also within this many of its noise stds (edge_sigma_rel x size)"
     )
     position_sigma_floor: float = Field(0.1, ge=0, description="model error added to x and y (m)")
-    bias_states: bool = Field(
-        True, description="the motion filter also estimates each cue's relative depth bias (priors, kerbs)"
-    )
-    contact_bias: Literal["state", "noise"] = Field(
-        "noise", description="the contact height's error (kerbs): a bias state, or noise of the ground cue"
-    )
-    contact_bias_tau_s: float = Field(2.0, gt=0, description="correlation time of the ground contact's bias (s)")
-    size_bias_tau_s: float = Field(30.0, gt=0, description="correlation time of the height / width priors' errors (s)")
-    bias_sigma_floor: float = Field(0.01, ge=0, description="least prior std of a relative cue bias")
     filter_noise: Literal["white", "total"] = Field(
         "white", description="the motion filter's measurement noise: the frame-to-frame part of the "
         "range error (priors, offsets and kerbs stay with a track) or all of it"
@@ -399,13 +387,6 @@ class Measurement:
     lateral: np.ndarray
     half_width: np.ndarray
     sigma_white: np.ndarray
-    face_ground: np.ndarray
-    face_height: np.ndarray
-    face_width: np.ndarray
-    var_ground: np.ndarray
-    var_height: np.ndarray
-    var_width: np.ndarray
-    cov_ground_height: np.ndarray
     cov: np.ndarray
     cut_bottom: np.ndarray
     cut_top: np.ndarray
@@ -586,37 +567,6 @@ class _MotionFilter:
             self.mu /= self.mu.sum()
         self._combine()
 
-    def nis_model(self, z: np.ndarray, r: np.ndarray, model) -> float:
-        """NIS of ``z`` for a measurement model ``model(x) -> (h(x), H)`` at the mixture."""
-        h, hj = model(self.x)
-        innov = z - h
-        try:
-            return float(innov @ np.linalg.solve(hj @ self.P @ hj.T + r, innov))
-        except np.linalg.LinAlgError:
-            return np.inf
-
-    def update_model(self, z: np.ndarray, r: np.ndarray, model) -> None:
-        """Extended Kalman update of every model (linearised at its own state), then the mode
-        probabilities, as ``update``."""
-        m = len(self.mu)
-        loglik = np.zeros(m)
-        for j in range(m):
-            p = self.Ps[j]
-            h, hj = model(self.xs[j])
-            innov = z - h
-            s = hj @ p @ hj.T + r
-            k = np.linalg.solve(s, hj @ p).T  # P H^T S^-1
-            self.xs[j] = self.xs[j] + k @ innov
-            ikh = np.eye(len(p)) - k @ hj
-            self.Ps[j] = ikh @ p @ ikh.T + k @ r @ k.T  # Joseph form
-            loglik[j] = -0.5 * (innov @ np.linalg.solve(s, innov) + np.log(np.linalg.det(s)))
-        if m > 1:
-            lw = np.log(np.maximum(self.mu, 1e-300)) + loglik
-            w = np.exp(lw - lw.max())
-            self.mu = np.maximum(w / w.sum(), 1e-6)
-            self.mu /= self.mu.sum()
-        self._combine()
-
     def finite(self) -> bool:
         return bool(np.all(np.isfinite(self.xs)) and np.all(np.isfinite(self.Ps)) and np.all(np.isfinite(self.mu)))
 
@@ -652,7 +602,7 @@ class Estimator:
             key: np.array([getattr(p, key) for p in table])
             for key in ClassPrior.model_fields
         }
-        self._dim = _DIM
+        self._dim = 6
         self.reset()
 
     def reset(self) -> None:
@@ -741,8 +691,6 @@ class Estimator:
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
         vw_g = sig_g**2  # white: edge noise and pitching change from frame to frame
         sig_g = np.hypot(sig_g, (xg_all - mx) * self._prior_of(cid, "contact_height_sigma") / mz)
-        if cfg.contact_bias == "noise":  # kerbs come and go: frame-to-frame noise, not a state
-            vw_g = sig_g**2
         g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > _MIN_DEPTH)
         x_g = np.where(g_ok, xg_all, np.nan)
         sig_g = np.where(g_ok, sig_g, np.nan)
@@ -872,13 +820,6 @@ class Estimator:
             lateral=lat,
             half_width=np.where(np.isfinite(lat), hw, np.nan),
             sigma_white=sig_white,
-            face_ground=np.where(g_ok & front, xg_f, np.nan),
-            face_height=np.where(h_ok & front, xh_f, np.nan),
-            face_width=np.where(w_ok & front, x_w, np.nan),
-            var_ground=vw_g + (cfg.contact_offset_rel_sigma * (x_g - xg_f)) ** 2,
-            var_height=vw_h + (cfg.contact_offset_rel_sigma * (x_h - xh_f)) ** 2,
-            var_width=vw_w,
-            cov_ground_height=np.where(both, dxg_dv * dxh_dv * (cfg.edge_sigma_rel * h_px) ** 2, 0.0),
             cov=self._position_cov(xc, sig_f, tan_eff, s_bear, extra),
             cut_bottom=cut_bottom,
             cut_top=cut_top,
@@ -1067,13 +1008,9 @@ class Estimator:
                 if trk is not None and meas.cut_bottom[i]:
                     z, r = self._cut_bottom_update(trk, meas, i)
                 lam = self.noise_scale
-                plain = not (meas.cut_bottom[i] or meas.side_bound[i])
-                sample = trk is not None and trk.updates >= cfg.settle_updates and plain
-                joint = self._joint(meas, i, lam) if cfg.bias_states and plain else None
-                ok = trk is not None and (
-                    self._update_joint(trk, *joint, sample) if joint is not None else self._update(trk, z, r * lam, sample)
-                )
-                if not ok:  # a new filter starts from the box
+                sample = trk is not None and trk.updates >= cfg.settle_updates and not (
+                    meas.cut_bottom[i] or meas.side_bound[i])
+                if trk is None or not self._update(trk, z, r * lam, sample):  # a new filter starts from the box
                     trk = self._new_filter(z0, r0 * lam, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
                     self._filters[tid] = trk
                 trk.class_id, trk.last_update = cls, t
@@ -1168,11 +1105,10 @@ class Estimator:
         cid = np.array([class_id])
         models = []
         names = {"cv": ("cv",), "ca": ("ca",), "imm": ("cv", "ca")}[cfg.motion_model]
-        fb, qb = self._bias_process(dt, class_id)
         for name in names:
-            f = np.eye(_DIM)
+            f = np.eye(6)
             f[0, 2] = f[1, 3] = dt  # p += v dt
-            q = np.zeros((_DIM, _DIM))
+            q = np.zeros((6, 6))
             if name == "cv":
                 f[4, 4] = f[5, 5] = 0.0  # no acceleration
                 sa = float(self._prior_of(cid, "accel_sigma")[0])
@@ -1180,36 +1116,14 @@ class Estimator:
                     sa *= cfg.imm_quiet_accel_scale
                 q[:4, :4] = Q_discrete_white_noise(2, dt=dt, var=sa**2, block_size=2, order_by_dim=False)
                 if cfg.motion_model == "imm":  # acceleration unknown to this model, not zero: mixing
-                    q[4:6, 4:6] = np.eye(2) * float(self._prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
+                    q[4:, 4:] = np.eye(2) * float(self._prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
             else:
                 f[2, 4] = f[3, 5] = dt  # v += a dt
                 f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
                 dens = (float(self._prior_of(cid, "jerk_sigma")[0]) * cfg.jerk_scale) ** 2
-                q[:6, :6] = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
-            f[6:, 6:], q[6:, 6:] = fb, qb
+                q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
             models.append((f, q))
         return models
-
-    def _bias_sigmas(self, class_id: int) -> np.ndarray:
-        """Prior std of the relative depth bias of the ground, height and width cues (class priors)."""
-        cid, mz = np.array([class_id]), self.camera.mount[2]
-        p = lambda key: float(self._prior_of(cid, key)[0])  # noqa: E731
-        floor = self.config.bias_sigma_floor
-        contact = p("contact_height_sigma") / mz if self.config.contact_bias == "state" else 0.0
-        return np.hypot(floor, np.array([
-            contact,  # a contact z above the road: depth x m_z / (m_z - z)
-            p("height_sigma") / p("height"),
-            p("width_sigma") / p("width"),
-        ]))
-
-    def _bias_process(self, dt: float, class_id: int) -> tuple[np.ndarray, np.ndarray]:
-        """Gauss-Markov (Ornstein-Uhlenbeck) biases: stationary std from the class prior, correlation
-        time ``contact_bias_tau_s`` (kerbs come and go) and ``size_bias_tau_s`` (sizes stay)."""
-        cfg = self.config
-        sig = self._bias_sigmas(class_id)
-        tau = np.array([cfg.contact_bias_tau_s, cfg.size_bias_tau_s, cfg.size_bias_tau_s])
-        a = np.exp(-dt / tau)
-        return np.diag(a), np.diag(sig**2 * (1.0 - a**2))
 
     def _transition(self, dt: float) -> np.ndarray:
         """IMM Markov matrix over ``dt``: mean sojourn ``imm_quiet_s`` / ``imm_manoeuvre_s``."""
@@ -1224,8 +1138,7 @@ class Estimator:
         chord = speed * dt * np.sinc(theta / (2.0 * np.pi))
         shift = chord * np.array([np.cos(theta / 2.0), np.sin(theta / 2.0)])
         rot = _rot(-theta)
-        jac = np.eye(_DIM)
-        jac[:_MOTION, :_MOTION] = np.kron(np.eye(_MOTION // 2), rot)  # the biases are frame-free
+        jac = np.kron(np.eye(self._dim // 2), rot)
         self._ego_yaw += theta
         models: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
         trans = self._transition(dt)
@@ -1246,61 +1159,6 @@ class Estimator:
             self._nis.append(nis)
         try:
             trk.kf.update(z, r)
-        except np.linalg.LinAlgError:
-            return False
-        trk.updates += 1
-        return trk.kf.finite()
-
-    def _joint(self, meas: Measurement, i: int, lam: float):
-        """Measurement model of box ``i`` for the cue-bias filter: each range cue's face depth
-        d_c = (x - m_x)(1 + b_c) with its frame-to-frame noise (the shared bottom edge
-        correlating ground and height), and the bearing y - (x - m_x) tan = m_y + offset.
-        None when the box has no range cue. Returns (z, R, model)."""
-        mx, my = self.camera.mount[0], self.camera.mount[1]
-        floor2 = self.config.position_sigma_floor**2
-        cues = [(k, f[i], v[i]) for k, f, v in (
-            ("ground", meas.face_ground, meas.var_ground),
-            ("height", meas.face_height, meas.var_height),
-            ("width", meas.face_width, meas.var_width),
-        ) if np.isfinite(f[i]) and np.isfinite(v[i])]
-        if not cues or not np.isfinite(meas.tan_y[i]):
-            return None
-        n = len(cues) + 1
-        z = np.array([f - mx for _, f, _ in cues] + [my + meas.lateral_offset[i]])
-        r = np.zeros((n, n))
-        for k, (_, _, v) in enumerate(cues):
-            r[k, k] = v + floor2
-        names = [k for k, _, _ in cues]
-        if "ground" in names and "height" in names:
-            a, b = names.index("ground"), names.index("height")
-            c = min(float(meas.cov_ground_height[i]), 0.95 * np.sqrt(r[a, a] * r[b, b]))
-            r[a, b] = r[b, a] = c
-        xc = max(float(meas.x[i]) - mx, _MIN_DEPTH)
-        r[-1, -1] = (xc * meas.sigma_bearing[i]) ** 2 + meas.var_y_extra[i] + floor2
-        r *= lam
-        idx = [_BIAS[k] for k in names]
-        tan = float(meas.tan_y[i])
-
-        def model(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            d = x[0] - mx
-            hj = np.zeros((n, _DIM))
-            for k, b in enumerate(idx):
-                hj[k, 0], hj[k, b] = 1.0 + x[b], d
-            hj[-1, 0], hj[-1, 1] = -tan, 1.0
-            return np.array([d * (1.0 + x[b]) for b in idx] + [x[1] - d * tan]), hj
-
-        return z, r, model
-
-    def _update_joint(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray, model, sample: bool = False) -> bool:
-        """``_update`` with a measurement model (``_joint``)."""
-        nis = trk.kf.nis_model(z, r, model)
-        if not nis <= self.config.reinit_nis:
-            log.debug("track filter restarted: NIS %.1f", nis)
-            return False
-        if sample and np.isfinite(nis):
-            self._nis.append(nis * 2.0 / len(z))  # per 2 degrees of freedom, roughly
-        try:
-            trk.kf.update_model(z, r, model)
         except np.linalg.LinAlgError:
             return False
         trk.updates += 1
@@ -1351,18 +1209,17 @@ class Estimator:
                 meas = rel + np.array([speed - yaw_rate * z[1], yaw_rate * z[0]])
                 var1 = cfg.init_velocity_sigma**2
                 ground, var = meas * var0 / (var0 + var1), var0 * var1 / (var0 + var1)
-        x = np.zeros(_DIM)
+        x = np.zeros(6)
         x[:4] = np.concatenate([z, ground])
-        p = np.zeros((_DIM, _DIM))
+        p = np.zeros((6, 6))
         p[:2, :2] = r
         p[2:4, 2:4] = np.eye(2) * var
-        p[6:, 6:] = np.diag(self._bias_sigmas(cls) ** 2)
         mu = {"cv": [1.0], "ca": [1.0], "imm": [cfg.imm_init_quiet, 1.0 - cfg.imm_init_quiet]}[cfg.motion_model]
         if cfg.motion_model != "cv":
-            p[4:6, 4:6] = np.eye(2) * cfg.init_accel_sigma**2
+            p[4:, 4:] = np.eye(2) * cfg.init_accel_sigma**2
         kf = _MotionFilter(x, p, np.array(mu))
         if cfg.motion_model == "imm":  # the quiet model carries no acceleration
-            kf.Ps[0, 4:6, :] = kf.Ps[0, :, 4:6] = 0.0
+            kf.Ps[0, 4:, :] = kf.Ps[0, :, 4:] = 0.0
             kf._combine()
         return _TrackFilter(kf=kf, class_id=cls, last_update=t, half_width=np.nan, born=t)
 

@@ -37,6 +37,12 @@ Reward per step (``dt`` = the frame period, s)::
 ``alerts`` (list of ``Alert.to_dict()``), ``collisions`` (list of
 ``Collision.to_dict()``), ``aeb_braking`` and ``reward_terms``.
 
+Choices through ``gym.make(id, ...)``: ``scenario`` (YAML path or ``Scenario``),
+``render_camera``, ``detector`` (``gt`` noise model; ``onnx``, the shipped model on the
+camera image; ``scenario``, whatever the scenario says), ``weather`` (a kind such as
+``"fog"`` or a ``WeatherSpec`` mapping), ``aeb`` (bool or ``AebConfig`` fields),
+``max_objects``, ``discrete``, ``render_mode``.
+
 ``reset(seed=s)`` rebuilds the ``Runner`` with the scenario's seed replaced by
 ``s`` (same seed + same actions -> identical observations); ``reset()`` with no
 seed reuses the last seed (initially the scenario's).
@@ -53,7 +59,7 @@ from gymnasium import spaces
 
 from sim.aeb import Aeb, AebConfig
 from sim.runner import Runner, detector_truth
-from sim.scenario import DetectorSpec, Scenario, load_scenario
+from sim.scenario import Scenario, WeatherSpec, load_scenario, with_detector
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT_SCENARIO = ROOT / "scenarios" / "stationary_car.yaml"
@@ -78,6 +84,7 @@ class LookaheadEnv(gymnasium.Env):
         scenario: str | Path | Scenario = DEFAULT_SCENARIO,
         render_camera: bool = False,
         detector: str = "gt",
+        weather: str | dict | None = None,
         aeb: bool | AebConfig | dict = False,
         max_objects: int = 16,
         discrete: bool = False,
@@ -85,12 +92,17 @@ class LookaheadEnv(gymnasium.Env):
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode {render_mode!r} not in {self.metadata['render_modes']}")
-        if detector not in ("gt", "scenario"):
-            raise ValueError("detector: 'gt' (noise model) or 'scenario' (the scenario's detector)")
+        if detector not in ("gt", "onnx", "scenario"):
+            raise ValueError("detector: 'gt' (noise model), 'onnx' (the shipped model on the camera "
+                             "image; needs render_camera) or 'scenario' (the scenario's detector)")
+        if detector == "onnx" and not render_camera:
+            raise ValueError("detector 'onnx' runs on camera images: pass render_camera=True")
         sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
-        if detector == "gt" and sc.perception.detector.kind != "gt":
-            p = sc.perception.model_copy(update={"detector": DetectorSpec(kind="gt")})
-            sc = sc.model_copy(update={"perception": p})
+        if detector != "scenario":
+            sc = with_detector(sc, detector)
+        if weather is not None:  # a kind ("fog") or a full weather mapping
+            spec = WeatherSpec.model_validate({"kind": weather} if isinstance(weather, str) else weather)
+            sc = sc.model_copy(update={"weather": spec})
         self.scenario = sc
         self.render_camera = bool(render_camera)
         # AEB on top of the agent: off, on (True: the scenario's ego.aeb settings, else the defaults)

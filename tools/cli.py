@@ -137,6 +137,8 @@ def suite(
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
     db: Annotated[Path | None, typer.Option("--db", help="one SQLite store for every run of the suite")] = None,
+    detector: Annotated[str | None, typer.Option(help="override every scenario's detector: gt | onnx | auto")] = None,
+    model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
 ) -> None:
     """Run and score every scenario of a suite; writes summary.json."""
     from tools.suite import load_suite, run_suite
@@ -145,7 +147,8 @@ def suite(
     with _progress() as prog:
         task = prog.add_task(suite_file.stem, total=len(paths))
         summary = run_suite(suite_file, out, workers=workers, render=render, db=db,
-                            progress=lambda name: prog.update(task, advance=1, description=name))
+                            progress=lambda name: prog.update(task, advance=1, description=name),
+                            detector=(detector, None if model is None else str(model)))
     print_suite(summary)
 
 
@@ -157,6 +160,9 @@ def regress(
     update_baseline: Annotated[bool, typer.Option("--update-baseline", help="write the current totals as the baseline")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="keep the suite directory here")] = None,
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 2,
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
+    detector: Annotated[str | None, typer.Option(help="override every scenario's detector: gt | onnx | auto")] = None,
+    model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
 ) -> None:
     """Run a suite and compare its totals with a baseline; exit 1 on a regression."""
     import tempfile
@@ -166,7 +172,8 @@ def regress(
 
     base = None if update_baseline else load_baseline(baseline)  # fail before running anything
     with tempfile.TemporaryDirectory(prefix="lookahead-regress-") as tmp:
-        summary = run_suite(suite_file, out or Path(tmp), workers=workers)
+        summary = run_suite(suite_file, out or Path(tmp), workers=workers, render=render,
+                            detector=(detector, None if model is None else str(model)))
     current = flatten(summary["totals"])
     if update_baseline:
         write_baseline(baseline, summary["suite"], current)

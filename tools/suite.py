@@ -39,19 +39,21 @@ def load_suite(path: str | Path) -> tuple[str, list[Path]]:
 
 
 def run_one(
-    scenario_path: str, out_dir: str, render: bool, db: str | None = None, outputs: tuple[str, ...] = ()
+    scenario_path: str, out_dir: str, render: bool, db: str | None = None, outputs: tuple[str, ...] = (),
+    detector: tuple[str | None, str | None] = (None, None),
 ) -> dict:
     """Run and score one scenario into ``out_dir`` (a worker's job; returns its metrics).
 
     ``outputs`` may name extra sinks: ``keyframes`` (annotated PNGs in frames/),
-    ``video`` (annotated.mp4), ``rerun`` (run.rrd).
+    ``video`` (annotated.mp4), ``rerun`` (run.rrd). ``detector`` = (kind, model)
+    overrides the scenario's detector (``sim.scenario.with_detector``).
     """
     from sim.runner import Runner
-    from sim.scenario import load_scenario
+    from sim.scenario import load_scenario, with_detector
     from tools.rundir import RunDirWriter
     from tools.score import score_run
 
-    sc = load_scenario(scenario_path)
+    sc = with_detector(load_scenario(scenario_path), *detector)
     run_dir = Path(out_dir)
     sinks: list = [RunDirWriter(run_dir, sc, scenario_path)]
     if db is not None:
@@ -78,9 +80,11 @@ def run_one(
 def run_suite(
     suite_path: str | Path, out: Path, workers: int = 1, render: bool = False, progress=None,
     db: Path | None = None, outputs: dict[str, tuple[str, ...]] | None = None,
+    detector: tuple[str | None, str | None] = (None, None),
 ) -> dict:
     """Run every scenario of a suite (on a process pool when ``workers`` > 1), score
-    each, and write ``out/summary.json`` with per-run metrics and suite ``totals``."""
+    each, and write ``out/summary.json`` with per-run metrics and suite ``totals``.
+    ``detector`` = (kind, model) overrides every scenario's detector."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
 
@@ -89,15 +93,24 @@ def run_suite(
     from tools.score import score_suite
 
     name, paths = load_suite(suite_path)
-    for p in paths:  # validate everything before running anything
-        load_scenario(p)
+    from sim.runner import build_detector
+    from sim.scenario import with_detector
+
+    checked: set[str] = set()
+    for p in paths:  # validate everything (and load each detector once) before running anything
+        sc = with_detector(load_scenario(p), *detector)
+        key = sc.perception.detector.model_dump_json()
+        if key not in checked:
+            build_detector(sc.perception.detector, sc.seed, render)
+            checked.add(key)
     prepare_dir(out)
     if db is not None:  # fail before running anything; creates the schema once
         from tools.store import open_db
 
         open_db(db).close()
     outputs = outputs or {}
-    jobs = [(str(p), str(out / p.stem), render, None if db is None else str(db), outputs.get(p.stem, ()))
+    det = (detector[0], None if detector[1] is None else str(detector[1]))
+    jobs = [(str(p), str(out / p.stem), render, None if db is None else str(db), outputs.get(p.stem, ()), det)
             for p in paths]
     results: dict[str, dict] = {}
     if workers <= 1:
@@ -122,6 +135,7 @@ def run_suite(
     summary = {
         "suite": name,
         "render": render,
+        "detector": {"kind": detector[0], "model": det[1]},
         "runs": {r["name"]: {"dir": Path(r["dir"]).name, "summary": r["summary"], "metrics": r["metrics"]} for r in ordered},
         "totals": totals,
     }

@@ -130,3 +130,17 @@ def test_async_vector_env():
         assert obs["tracks"].shape == (2, 16, 8) and rew.shape == (2,)
     finally:
         envs.close()
+
+
+def test_weather_and_detector_choices_reach_the_scenario():
+    env = LookaheadEnv(scenario=STATIONARY, weather={"kind": "fog", "visibility": 80})
+    assert env.scenario.weather.kind == "fog" and env.scenario.weather.visibility == 80
+    assert env.scenario.perception.detector.kind == "gt"
+    cam = LookaheadEnv(scenario=tiny_camera_scenario(), render_camera=True, detector="onnx", weather="night")
+    assert cam.scenario.perception.detector.kind == "onnx" and cam.scenario.weather.kind == "night"
+    try:
+        LookaheadEnv(detector="onnx")
+    except ValueError as e:
+        assert "render_camera" in str(e)
+    else:
+        raise AssertionError("onnx without the camera must be refused")
