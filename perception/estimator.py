@@ -203,7 +203,6 @@ log = logging.getLogger(__name__)
 _DV = 0.5  # px, finite-difference step for d(ray)/dv
 _MIN_DEPTH = 0.1  # m, nearest camera-forward distance accepted for a measurement
 _BEARING_ONLY_SIGMA = 100.0  # m, range std of a bearing-only measurement
-_CHI2_2_MEDIAN = 2.0 * np.log(2.0)  # median of a chi-square with 2 degrees of freedom
 
 
 class ClassPrior(BaseModel):
@@ -298,7 +297,6 @@ class EstimatorConfig(BaseModel):
     imm_quiet_accel_scale: float = Field(
         0.5, gt=0, description="'imm': the quiet cv model's accel std, times the class's accel_sigma"
     )
-    jerk_scale: float = Field(1.0, gt=0, description="scale of every class's jerk_sigma (experiments)")
     imm_quiet_s: float = Field(2.0, gt=0, description="'imm': mean time in the quiet model (s)")
     imm_manoeuvre_s: float = Field(1.0, gt=0, description="'imm': mean time in the manoeuvre (ca) model (s)")
     imm_init_quiet: float = Field(0.8, ge=0, le=1, description="'imm': a new filter's quiet-model probability")
@@ -312,10 +310,7 @@ class EstimatorConfig(BaseModel):
         2.0, ge=0, description="... a side or bottom edge also within this many of its noise stds (edge_sigma_rel x size)"
     )
     position_sigma_floor: float = Field(0.1, ge=0, description="model error added to x and y (m)")
-    filter_noise: Literal["white", "total"] = Field(
-        "white", description="the motion filter's measurement noise: the frame-to-frame part of the "
-        "range error (priors, offsets and kerbs stay with a track) or all of it"
-    )
+    side_cut_widen: bool = Field(True, description="exp")
     side_cut_min_extent: float = Field(
         1.0, ge=0, description="a box cut at a side bounds the range only, if the footprint's x extent is this long (m)"
     )
@@ -339,14 +334,6 @@ class EstimatorConfig(BaseModel):
     settle_updates: int = Field(5, ge=1, description="updates before velocity enters the history")
     min_speed_accel: float = Field(0.5, ge=0, description="accel is NaN below this ground speed (m/s)")
     min_speed_yaw: float = Field(1.0, ge=0, description="yaw rate is NaN below this ground speed (m/s)")
-    noise_adapt: bool = Field(
-        True, description="scale the measurement noise so the innovations match it (median NIS) ..."
-    )
-    noise_adapt_window: int = Field(100, ge=1, description="... over this many recent updates ...")
-    noise_adapt_min_samples: int = Field(10, ge=1, description="... once there are this many ...")
-    noise_adapt_rate: float = Field(0.3, ge=0, le=1, description="... moving by (ratio ^ this) per frame ...")
-    noise_scale_min: float = Field(0.25, gt=0, description="... within [min, max] of the modelled noise")
-    noise_scale_max: float = Field(4.0, gt=0, description="... (variance factor)")
     settle_range_rate_sigma: float = Field(
         1.0, ge=0, description="a track's range rate has converged once its std is below this (m/s) ..."
     )
@@ -386,7 +373,6 @@ class Measurement:
     sigma_width: np.ndarray
     lateral: np.ndarray
     half_width: np.ndarray
-    sigma_white: np.ndarray
     cov: np.ndarray
     cut_bottom: np.ndarray
     cut_top: np.ndarray
@@ -612,8 +598,6 @@ class Estimator:
         self._speed = 0.0
         self._yaw_rate = 0.0
         self._ego_yaw = 0.0  # integrated ego heading since the first frame (rad)
-        self.noise_scale = 1.0  # measurement-noise scale learnt from the innovations (``noise_adapt``)
-        self._nis: deque = deque(maxlen=self.config.noise_adapt_window)
 
     @property
     def num_filters(self) -> int:
@@ -689,7 +673,6 @@ class Estimator:
         xg_all = gp[:, 0, 0]
         dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
-        vw_g = sig_g**2  # white: edge noise and pitching change from frame to frame
         sig_g = np.hypot(sig_g, (xg_all - mx) * self._prior_of(cid, "contact_height_sigma") / mz)
         g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > _MIN_DEPTH)
         x_g = np.where(g_ok, xg_all, np.nan)
@@ -703,7 +686,6 @@ class Estimator:
         xc_h = H / ds
         sig_ds = np.hypot(dsdv_t * sv, dsdv_b * sv)
         sig_h = xc_h * np.hypot(sH / H, sig_ds / ds)
-        vw_h = (xc_h * sig_ds / ds) ** 2  # white: the two edges (the prior's error is the track's own)
         h_ok = ok & ~cut_top & ~cut_bottom & (ds > 0) & (xc_h > _MIN_DEPTH) & np.isfinite(sig_h)
         x_h = np.where(h_ok, mx + xc_h, np.nan)
         sig_h = np.where(h_ok, sig_h, np.nan)
@@ -715,7 +697,6 @@ class Estimator:
         xc_w = W / dt
         sig_dt = np.sqrt(2.0) * np.hypot(cfg.contact_sigma_px, cfg.edge_sigma_rel * w_px) / cam.fx
         sig_w = xc_w * np.hypot(sW / W, sig_dt / dt)
-        vw_w = (xc_w * sig_dt / dt) ** 2
         w_cue = self._prior_of(cid, "width_cue").astype(bool)
         w_ok = (
             ok & w_cue & ~cut_left & ~cut_right & ~cut_bottom & (t_r < 0.0) & (t_l > 0.0)
@@ -753,11 +734,6 @@ class Estimator:
                 w_sum > 0, (np.where(gh_ok, xf_gh, 0.0) * w_gh + np.nan_to_num(x_w) * w_w) / w_sum, np.nan
             )
             sig = np.where(w_sum > 0, 1.0 / np.sqrt(w_sum), np.nan)
-            # the part of that error which changes from frame to frame (the rest -- priors,
-            # contact offset, kerbs -- stays with the track): what the motion filter averages
-            vw_gh = a_g**2 * np.nan_to_num(vw_g) + a_h**2 * np.nan_to_num(vw_h) + 2.0 * a_g * a_h * c_gh
-            var_white = (w_gh**2 * vw_gh + w_w**2 * np.nan_to_num(vw_w)) / w_sum**2
-            sig_white = np.where(w_sum > 0, np.sqrt(np.clip(var_white, 0.0, sig**2)), np.nan)
 
         # 4. boxes cut at the bottom: top ray on z = H, bounded by the bottom image row
         x_max = np.full(n, np.nan)
@@ -765,14 +741,12 @@ class Estimator:
             x, sig, x_h, sig_h, x_max = self._cut_bottom(
                 cut_bottom, cut_top, x, sig, x_h, sig_h, xg_all, s_t, dsdv_t, ds, sv, H, sH
             )
-            sig_white = np.where(cut_bottom, sig, sig_white)  # the top ray: all of it, conservatively
 
         # 5. lateral offset and half-width at the fused range (the bottom-centre ray at the contact)
         xc = x - mx
         front = xc > _MIN_DEPTH
         x = np.where(front, x, np.nan)
         sig = np.where(front, sig, np.nan)
-        sig_white = np.where(front, sig_white, np.nan)
         t_c = tan_y[:, 0]
         y_c, y_l, y_r = my + xc * t_c, my + xc * t_l, my + xc * t_r
         hw = 0.5 * (y_l - y_r)
@@ -804,10 +778,8 @@ class Estimator:
         # bound, its std widened by the extent's uniform std
         extent = self._prior_of(cid, "length") * cos_h + W * np.sqrt(1.0 - cos_h**2)
         side_bound = (cut_left ^ cut_right) & ~cut_bottom & (extent >= cfg.side_cut_min_extent) & np.isfinite(x)
-        if np.any(side_bound):
+        if np.any(side_bound) and cfg.side_cut_widen:
             sig = np.where(side_bound, np.hypot(sig, extent / np.sqrt(12.0)), sig)
-            sig_white = np.where(side_bound, sig, sig_white)  # the hidden extent changes as it moves
-        sig_f = sig_white if cfg.filter_noise == "white" else sig
         return Measurement(
             x=x,
             sigma=sig,
@@ -819,8 +791,7 @@ class Estimator:
             sigma_width=sig_w,
             lateral=lat,
             half_width=np.where(np.isfinite(lat), hw, np.nan),
-            sigma_white=sig_white,
-            cov=self._position_cov(xc, sig_f, tan_eff, s_bear, extra),
+            cov=self._position_cov(xc, sig, tan_eff, s_bear, extra),
             cut_bottom=cut_bottom,
             cut_top=cut_top,
             x_max=x_max,
@@ -1007,11 +978,8 @@ class Estimator:
                 z, r = z0, r0
                 if trk is not None and meas.cut_bottom[i]:
                     z, r = self._cut_bottom_update(trk, meas, i)
-                lam = self.noise_scale
-                sample = trk is not None and trk.updates >= cfg.settle_updates and not (
-                    meas.cut_bottom[i] or meas.side_bound[i])
-                if trk is None or not self._update(trk, z, r * lam, sample):  # a new filter starts from the box
-                    trk = self._new_filter(z0, r0 * lam, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
+                if trk is None or not self._update(trk, z, r):  # a new filter starts from the box itself
+                    trk = self._new_filter(z0, r0, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
                     self._filters[tid] = trk
                 trk.class_id, trk.last_update = cls, t
                 a, hw_i = cfg.half_width_alpha, float(meas.half_width[i])
@@ -1039,7 +1007,6 @@ class Estimator:
 
         for tid in [k for k, f in self._filters.items() if t - f.last_update > cfg.max_coast_s]:
             del self._filters[tid]
-        self._adapt_noise()
         return self._outputs(state, p_xx, p_rr, settled, hw, hist, speed, yaw_rate)
 
     def _cut_bottom_update(self, trk: _TrackFilter, meas: Measurement, i: int) -> tuple[np.ndarray, np.ndarray]:
@@ -1120,7 +1087,7 @@ class Estimator:
             else:
                 f[2, 4] = f[3, 5] = dt  # v += a dt
                 f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
-                dens = (float(self._prior_of(cid, "jerk_sigma")[0]) * cfg.jerk_scale) ** 2
+                dens = float(self._prior_of(cid, "jerk_sigma")[0]) ** 2
                 q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
             models.append((f, q))
         return models
@@ -1148,37 +1115,18 @@ class Estimator:
                 models[trk.class_id] = self._process(dt, trk.class_id)
             trk.kf.predict(models[trk.class_id], trans)
 
-    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray, sample: bool = False) -> bool:
-        """Kalman update; False (filter to restart) when the innovation fails the NIS gate.
-        ``sample``: the NIS joins the noise-scale statistic (``_adapt_noise``)."""
+    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> bool:
+        """Kalman update; False (filter to restart) when the innovation fails the NIS gate."""
         nis = trk.kf.nis(z, r)
         if not nis <= self.config.reinit_nis:
             log.debug("track filter restarted: NIS %.1f", nis)
             return False
-        if sample and np.isfinite(nis):
-            self._nis.append(nis)
         try:
             trk.kf.update(z, r)
         except np.linalg.LinAlgError:
             return False
         trk.updates += 1
         return trk.kf.finite()
-
-    def _adapt_noise(self) -> None:
-        """Scale the modelled measurement noise so the innovations are consistent with it.
-
-        The median NIS of the last ``noise_adapt_window`` updates of running filters
-        against the chi-square(2) median (2 ln 2): a median well above it means the boxes
-        are noisier than modelled, below it quieter. The scale moves by (ratio ^
-        ``noise_adapt_rate``) per frame within [``noise_scale_min``, ``noise_scale_max``]
-        (the median, not the mean: manoeuvres and the occasional bad box barely move it).
-        """
-        cfg = self.config
-        if not cfg.noise_adapt or len(self._nis) < cfg.noise_adapt_min_samples:
-            return
-        ratio = float(np.median(self._nis)) / _CHI2_2_MEDIAN
-        lam = self.noise_scale * ratio**cfg.noise_adapt_rate
-        self.noise_scale = float(np.clip(lam, cfg.noise_scale_min, cfg.noise_scale_max))
 
     def _new_filter(
         self,

@@ -635,16 +635,21 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
         raise ScenarioError(_format_validation(path, e, root)) from None
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario YAML file."""
+def read_text_file(path: str | Path, what: str = "scenario", error: type[ScenarioError] | None = None) -> str:
+    """The UTF-8 text of ``path``; a one-line ``error`` (``ScenarioError``) when missing or unreadable."""
+    err = error or ScenarioError
     p = Path(path)
     if not p.is_file():
-        raise ScenarioError(f"{p}: no such scenario file")
+        raise err(f"{p}: no such {what} file")
     try:
-        text = p.read_text(encoding="utf-8")
+        return p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as e:
-        raise ScenarioError(f"{p}: cannot read: {e}") from None
-    return parse_scenario(text, str(p))
+        raise err(f"{p}: cannot read: {e}") from None
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file."""
+    return parse_scenario(read_text_file(path), str(path))
 
 
 def scenario_json_schema() -> dict:

@@ -52,6 +52,15 @@ def user_errors(fn):
     return wrapper
 
 
+def save_bench(result: dict, out: Path) -> None:
+    """Write a benchmark's JSON to ``out`` and print its table and ratios."""
+    from tools.bench import print_bench
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(result, indent=2) + "\n")
+    print_bench(result, console)
+
+
 def _progress() -> Progress:
     return Progress(
         TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
@@ -335,12 +344,9 @@ def bench_sim(
 ) -> None:
     """ms per tick: bare highway-env, our world, and rendering at 640x360 and 960x540."""
     from tools.bench import bench_sim as run_bench
-    from tools.bench import print_bench
 
     result = run_bench(scenario, ticks=ticks, frames=frames)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    save_bench(result, out)
 
 
 @app.command()
@@ -526,13 +532,10 @@ def bench_all(
     repeats: Annotated[int, typer.Option(help="repeats for the track and sinks benchmarks")] = 3,
 ) -> None:
     """Every benchmark (sim, track, sinks, env, sweep, the full loop) in one process; one JSON with all ratios."""
-    from tools.bench import print_bench
     from tools.bench_all import bench_all as run_bench
 
     result = run_bench(repeats=repeats)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    save_bench(result, out)
     console.print(f"full loop: {result['loop_fps']:.1f} frames/s", highlight=False)
 
 
@@ -547,13 +550,10 @@ def bench_detect(
 ) -> None:
     """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360."""
     from sim.runner import DEFAULT_MODEL
-    from tools.bench import print_bench
     from tools.bench_detect import bench_detect as run_bench
 
     result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    save_bench(result, out)
     console.print(f"detector: {result['fps']:.1f} frames/s on {result['providers'][0]}", highlight=False)
 
 
@@ -565,13 +565,10 @@ def bench_sinks(
     repeats: Annotated[int, typer.Option(help="runs per configuration")] = 3,
 ) -> None:
     """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
-    from tools.bench import print_bench
     from tools.bench_sinks import bench_sinks as run_bench
 
     result = run_bench(scenario, repeats=repeats)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    save_bench(result, out)
 
 
 @bench_app.command("track")
@@ -596,13 +593,10 @@ def bench_env(
     steps: Annotated[int, typer.Option(help="timed env steps")] = 600,
 ) -> None:
     """ForwardTracks-v0 steps vs bare highway-env with the same traffic; real-time factor."""
-    from tools.bench import print_bench
     from tools.bench_env import bench_env as run_bench
 
     result = run_bench(scenario, steps=steps)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    save_bench(result, out)
 
 
 @bench_app.command("sweep")
@@ -615,13 +609,10 @@ def bench_sweep(
     repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
 ) -> None:
     """Wall time of one sweep on 1 worker and on 2 workers (warm pools, rendering off)."""
-    from tools.bench import print_bench
     from tools.bench_sweep import bench_sweep as run_bench
 
     result = run_bench(sweep_file, variants=variants, repeats=repeats)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    save_bench(result, out)
 
 
 @app.command()

@@ -65,7 +65,14 @@ from typing import Annotated, Any
 import yaml
 from pydantic import BaseModel, Discriminator, Field, Tag, ValidationError, model_validator
 
-from sim.scenario import Scenario, ScenarioError, Strict, _format_validation, load_scenario
+from sim.scenario import (
+    Scenario,
+    ScenarioError,
+    Strict,
+    _format_validation,
+    load_scenario,
+    read_text_file,
+)
 
 log = logging.getLogger(__name__)
 
@@ -535,13 +542,7 @@ def parse_sweep(text: str, path: str) -> SweepSpec:
 def load_sweep(path: str | Path) -> tuple[SweepSpec, Path, list[Variant]]:
     """(spec, base scenario path, variants) of a sweep file; one-line ``SweepError`` when wrong."""
     p = Path(path)
-    if not p.is_file():
-        raise SweepError(f"{p}: no such sweep file")
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise SweepError(f"{p}: cannot read: {e}") from None
-    spec = parse_sweep(text, str(p))
+    spec = parse_sweep(read_text_file(p, "sweep", SweepError), str(p))
     base_path = (p.parent / spec.scenario).resolve()
     if not base_path.is_file():
         raise SweepError(f"{p}: scenario: no such scenario file {base_path}")
