@@ -94,6 +94,20 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
    values follow typical vehicles (and the simulator's shapes: sedan / SUV
    rear overhang 0.21 L, truck 1.6 m, bus 3.0 m). Boxes cut at the bottom
    keep the top ray's estimate (step 4), which already refers to the face.
+7. Cut at a side, nearest face out of view (``side_bound``). A box cut at the
+   left or right image edge (not at the bottom) of a class whose footprint is
+   long along x (x extent L |cos psi| + W |sin psi| >= ``side_cut_min_extent``,
+   1 m: vehicles, cyclists end-on) whose nearest face is wholly beyond the
+   border -- the face's span lat -/+ W/2 at the measured x lies beyond y_b,
+   where the ray through the box's bottom corner at the border meets that
+   depth -- shows only a farther part of the object: a car overtaking
+   alongside. A segmentation mask's (or a detector's) box bottom is then the
+   lowest pixel at the border, the ground under the visible part, not the
+   nearest contact: the measured face x is an upper bound, the object reaching
+   up to the extent nearer. The measurement keeps x with sigma widened by the
+   extent's uniform std (extent / sqrt(12)); the filter does not settle on it
+   (below). A box clipped at the border whose face is partly in view is
+   measured as in steps 1-6.
 
 Tracking: one motion filter per track_id
 ----------------------------------------
@@ -155,8 +169,11 @@ distance looked 'receding', a stationary one 'about to hit' (false FCW). The
 filter reports ``range_rate_sigma`` (its std of range_rate) and ``settled``,
 latched once range_rate_sigma <= max(``settle_range_rate_sigma`` 1 m/s -- the
 intent labels' deadband --, ``settle_range_rate_rel`` x |range_rate| -- a TTC
-good to 25 %) or ``settle_max_s`` after the filter's birth, whichever comes
-first. Intent labels unsettled tracks 'initializing' (so they do not alert).
+good to 25 %) on a frame whose box gives a range (not cut at the bottom, not
+``side_bound``: a bound carries no range-rate information, and the pull-backs
+and widened updates of such frames shrink the std without it), or
+``settle_max_s`` after the filter's birth, whichever comes first. Intent labels
+unsettled tracks 'initializing' (so they do not alert).
 Latched, because the std grows again in a manoeuvre (the IMM's ca model takes
 over), when the estimate must not drop back to 'initializing'. A filter
 restarted by the NIS gate starts over. The heading used for the contact
@@ -310,7 +327,6 @@ class EstimatorConfig(BaseModel):
         2.0, ge=0, description="... a side or bottom edge also within this many of its noise stds (edge_sigma_rel x size)"
     )
     position_sigma_floor: float = Field(0.1, ge=0, description="model error added to x and y (m)")
-    side_cut_widen: bool = Field(True, description="exp")
     side_cut_min_extent: float = Field(
         1.0, ge=0, description="a box cut at a side bounds the range only, if the footprint's x extent is this long (m)"
     )
@@ -773,12 +789,18 @@ class Estimator:
             )
             lat = np.where(np.isfinite(x), lat, np.nan)
 
-        # 7. cut at a side with a long footprint along x: the nearest part may be out of view, up
-        # to the footprint's x extent nearer than the visible part -- the measured face is an upper
-        # bound, its std widened by the extent's uniform std
+        # 7. cut at a side, with a footprint long along x, and none of its nearest face in view
+        # (the face spans lat -/+ W/2 at x; the border ray through the box's bottom corner at the
+        # border reaches y_b there): the nearest part is out of view, up to the footprint's x
+        # extent nearer than the visible part. The measured face is an upper bound; its std is
+        # widened by the extent's uniform std, and the filter does not settle on it.
         extent = self._prior_of(cid, "length") * cos_h + W * np.sqrt(1.0 - cos_h**2)
-        side_bound = (cut_left ^ cut_right) & ~cut_bottom & (extent >= cfg.side_cut_min_extent) & np.isfinite(x)
-        if np.any(side_bound) and cfg.side_cut_widen:
+        y_b = my + xc * np.where(cut_left, t_l, t_r)
+        half = np.minimum(hw, 0.5 * W)
+        beyond = np.where(cut_left, lat - half >= y_b, lat + half <= y_b)
+        side_bound = (cut_left ^ cut_right) & ~cut_bottom & (extent >= cfg.side_cut_min_extent) & beyond
+        side_bound &= np.isfinite(x)
+        if np.any(side_bound):
             sig = np.where(side_bound, np.hypot(sig, extent / np.sqrt(12.0)), sig)
         return Measurement(
             x=x,
@@ -999,7 +1021,8 @@ class Estimator:
             if not trk.settled and trk.last_update == t:
                 rr_i = abs(float(trk.kf.x[2]) - speed + yaw_rate * float(trk.kf.x[1]))
                 limit = max(cfg.settle_range_rate_sigma, cfg.settle_range_rate_rel * rr_i)
-                converged = np.sqrt(max(p_rr[i], 0.0)) <= limit and not meas.side_bound[i]  # a bound is no rate
+                bound_only = meas.cut_bottom[i] or meas.side_bound[i]  # a range bound says nothing of its rate
+                converged = np.sqrt(max(p_rr[i], 0.0)) <= limit and not bound_only
                 trk.settled = bool(converged) or t - trk.born >= cfg.settle_max_s - 1e-9
             settled[i] = float(trk.settled)
             hw[i] = trk.half_width

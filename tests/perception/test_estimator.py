@@ -208,6 +208,65 @@ def test_car_alongside_cut_at_the_image_edge():
     assert m2.lateral[0] == pytest.approx(lat, abs=0.3)
 
 
+def render_visible(near: float, y: float, size: tuple[float, float, float], cam: CameraModel = CAM) -> np.ndarray:
+    """Box of the object's surface points that land in the image, as a segmentation mask gives it
+    (the amodal box clipped to the image keeps rows of parts outside it; this one does not)."""
+    length, width, height = size
+    g = np.linspace(0.0, 1.0, 60)
+    a, b = (v.ravel() for v in np.meshgrid(g, g, indexing="ij"))
+    x0, y0 = near, y - width / 2
+    faces = [np.stack([x0 + length * a, y0 + width * b, np.full_like(a, z)], -1) for z in (0.0, height)]
+    faces += [np.stack([x0 + length * a, np.full_like(a, s), height * b], -1) for s in (y0, y0 + width)]
+    faces += [np.stack([np.full_like(a, s), y0 + width * a, height * b], -1) for s in (x0, x0 + length)]
+    uv = cam.project(np.concatenate(faces))
+    ok = np.all(np.isfinite(uv), axis=1) & (uv[:, 0] >= 0) & (uv[:, 0] <= cam.width)
+    ok &= (uv[:, 1] >= 0) & (uv[:, 1] <= cam.height)
+    uv = uv[ok]
+    return np.concatenate([uv.min(axis=0), uv.max(axis=0)])
+
+
+def test_car_alongside_seen_only_in_part_bounds_its_range():
+    """A car overtaking on the left, rear beside the ego: the mask's box shows its front part only,
+    cut at the left border, its bottom the lowest visible pixel there, not the nearest contact."""
+    est = Estimator(CAM)
+    box = render_visible(-1.55, 3.5, SEDAN)
+    assert box[0] < 0.5 and box[3] < CAM.height - 20  # cut at the side (sampled surface), not the bottom
+    m = est.measure(box[None], [CAR])
+    assert m.side_bound[0] and not m.cut_bottom[0]
+    assert m.x[0] > -1.55 + 1.0  # the visible part's face: an upper bound ...
+    assert m.sigma[0] >= 0.9 * SEDAN[0] / np.sqrt(12.0)  # ... as uncertain as the hidden length
+    # its nearest face in view (fully, or cut at the border with its rear face partly in view): measured
+    for b in (render_visible(3.0, 2.8, SEDAN), render(1.0, 3.0, SEDAN, cls=CAR), render(2.0, 2.9, SEDAN, cls=CAR)):
+        m = est.measure(b[None], [CAR])
+        assert not m.side_bound[0], b
+    # a short footprint (a pedestrian at the border) hides nothing worth a bound
+    m = est.measure(render_visible(2.0, 3.2, ADULT)[None], [PED])
+    assert not m.side_bound[0]
+
+
+def test_no_settling_on_boxes_that_only_bound_the_range():
+    """The overtaking car slides into view at +4 m/s relative: while its box only bounds the range
+    the track stays unsettled (so 'initializing', no alert), then settles on the whole box with a
+    range rate near the truth."""
+    est = Estimator(CAM)
+    settled, bound, rr = [], [], []
+    for k in range(25):
+        t = k / RATE
+        near = -1.55 + 4.0 * t
+        box = render_visible(near, 3.5 - 0.3 * max(t - 0.5, 0.0), SEDAN)
+        m = est.measure(box[None], [CAR])
+        e = est.update(one_track(box, CAR), EgoOdometry(speed=22.0), t)
+        settled.append(e.settled[0])
+        bound.append(bool(m.side_bound[0] or m.cut_bottom[0]))
+        rr.append(e.range_rate[0])
+    settled, bound = np.array(settled), np.array(bound)
+    assert bound[:4].all() and not bound[-5:].any()
+    first = int(np.argmax(settled == 1.0))
+    assert not settled[bound & (np.arange(25) < first + 1)].any()  # never settles on a bound-only frame
+    assert np.all(settled[first:] == 1.0) and first <= round(est.config.settle_max_s * RATE)
+    assert rr[-1] == pytest.approx(4.0, abs=1.5)
+
+
 def test_edges_within_their_noise_of_the_border_count_as_cut():
     est = Estimator(CAM)
     big = np.array([[5.0, 150.0, 205.0, 300.0]])  # 200 px wide: 5 % edge noise is 10 px

@@ -51,6 +51,7 @@ def test_hand_computed_intent_danger_and_expectations(tmp_path):
     # 9 scored predictions (the initializing one is don't-care); frame 5's 'stable' is within
     # the 0.3 s tolerance of the ground truth's change; frame 8's 'approaching' is wrong.
     assert it["n"] == 9
+    assert it["n_initializing"] == 1  # frame 0: initializing, a don't-care pair, counted apart
     assert it["accuracy"] == pytest.approx(8 / 9, abs=1e-4)
     m = it["confusion"]["matrix"]
     assert m[0][0] == 5 and m[3][3] == 3 and m[3][1] == 1

@@ -5,7 +5,8 @@ Definitions (documented constants):
 * Matching: per frame, reported tracks (confirmed or briefly coasting) to ground-truth visible boxes by
   Hungarian IoU >= 0.5, class-agnostic (class errors are the detection
   section's business). Unmatched objects and tracks are left to the tracking
-  metrics; predictions still ``initializing`` are don't-care.
+  metrics; predictions still ``initializing`` are don't-care (``n_initializing`` counts
+  those matched pairs, beside ``n``, the scored ones).
 * Intent label time tolerance ``LABEL_TOLERANCE_S`` = 0.3 s: a prediction
   counts as correct when the object's ground-truth label equals it at any time
   within ±0.3 s (labels change at thresholds; a 3-frame slack at 10 Hz).
@@ -142,8 +143,11 @@ def evaluate_intent(run: IntentRun) -> dict:
     n = len(SCORED_LABELS)
     conf = np.zeros((n, n), dtype=np.int64)
     index = {int(lab): i for i, lab in enumerate(SCORED_LABELS)}
+    n_init = 0
     for f, actor, _track, pred in run.pairs:
         truth = run.gt_label[actor].get(f)
+        if pred == Label.INITIALIZING and truth in index:
+            n_init += 1
         if pred == Label.INITIALIZING or truth not in index or pred not in index:
             continue
         eff = pred if _label_near(run, actor, f, pred, tol) else truth
@@ -165,6 +169,7 @@ def evaluate_intent(run: IntentRun) -> dict:
         "per_class": per_class,
         "confusion": {"labels": [LABEL_NAMES[Label(k)] for k in index], "matrix": conf.tolist()},
         "n": total,
+        "n_initializing": n_init,
         "tolerance_s": LABEL_TOLERANCE_S,
     }
 
@@ -338,6 +343,7 @@ def intent_totals(per_run: list[dict]) -> dict:
             "per_class": per_class,
             "confusion": {"labels": labels, "matrix": conf.tolist()},
             "n": total,
+            "n_initializing": sum(int(m["intent"].get("n_initializing") or 0) for m in runs),
         },
         "danger": {
             "events": n_ev, "missed": missed, "alerts": alerts, "false_alarms": fa,
