@@ -443,6 +443,8 @@ def train_detector(
     eval_every: Annotated[int, typer.Option(min=0, help="validate every k epochs (0: at the end)")] = 4,
     limit: Annotated[int | None, typer.Option(min=1, help="use only the first N training images")] = None,
     log_file: Annotated[Path | None, typer.Option("--log", help="write the training log (JSON) here")] = None,
+    init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model)")] = None,
+    crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
     try:
@@ -453,7 +455,12 @@ def train_detector(
     from tools.detector.train import TrainConfig, train
 
     logging.getLogger("tools.detector").setLevel(logging.INFO)  # one line per epoch
-    cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit)
+    if init is not None and not init.is_file():
+        raise FileNotFoundError(f"{init}: no such checkpoint")
+    if crop[0] % 32 or crop[1] % 32:
+        raise typer.BadParameter(f"--crop: multiples of 32 expected, got {crop[0]} {crop[1]}")
+    cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
+                      init=None if init is None else str(init), crop=crop)
     with _progress() as prog:
         task = prog.add_task("training", total=1.0)
         result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f))

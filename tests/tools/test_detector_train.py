@@ -38,11 +38,12 @@ def test_decoder_inverts_the_targets():
     gh, gw = hw[0] // STRIDE, hw[1] // STRIDE
     heat = torch.full((1, 8, gh, gw), -10.0)
     reg = torch.zeros(1, 4, gh * gw)
-    for k in range(3):
+    for k in np.flatnonzero(t.valid):  # 4 regression cells per object, the centre cell first
         i = int(t.index[k])
-        heat[0, classes[k], i // gw, i % gw] = 10.0
-        off = np.clip(t.reg[k, :2], 1e-6, 1 - 1e-6)
-        reg[0, :2, i] = torch.from_numpy(np.log(off / (1 - off)))
+        if k % 4 == 0:
+            heat[0, classes[k // 4], i // gw, i % gw] = 10.0
+        u = np.clip((t.reg[k, :2] + 0.5) / 2.0, 1e-6, 1 - 1e-6)  # cell_offset = 2 sigmoid - 0.5
+        reg[0, :2, i] = torch.from_numpy(np.log(u / (1 - u)))
         reg[0, 2:, i] = torch.from_numpy(t.reg[k, 2:])  # log size in cells; the decoder gives px
     out = Decoded(_Oracle(heat, reg.reshape(1, 4, gh, gw)))(torch.zeros(1, 3, *hw))[0].numpy()
     assert out.shape == (12, gh * gw)
@@ -59,7 +60,8 @@ def test_ignored_objects_are_masked_not_taught():
     t = encode(boxes, np.array([1, 2]), np.array([True, False]), (128, 128), 8)
     assert t.heat[1].max() == 1.0 and t.heat[2].max() == 0.0
     assert t.mask[15, 15] == 0.0 and t.mask[5, 5] == 1.0
-    assert t.valid.sum() == 1
+    assert t.valid.sum() == 4  # the trained object's 2 x 2 regression cells
+    assert np.all((t.reg[:4, :2] >= -0.5) & (t.reg[:4, :2] < 1.5))
     logits = torch.full((1, 8, 32, 32), -3.0)
     base = focal_loss(logits, torch.from_numpy(t.heat)[None], torch.from_numpy(t.mask)[None, None])
     logits[0, 2, 15, 15] = 5.0  # a confident "detection" inside the ignored box costs nothing

@@ -10,8 +10,11 @@ masked over their boxes (the network is neither taught nor punished there).
 
 Targets (CenterNet, stride ``STRIDE``): a Gaussian per trained object on its class's
 heat map, peak 1 at the cell holding the box centre (sigma from the box size, as
-CenterNet's ``gaussian_radius`` with min overlap 0.7); at that cell the centre's
-offset in the cell and log(w / STRIDE), log(h / STRIDE).
+CenterNet's ``gaussian_radius`` with min overlap 0.7). Box regression is taught at that
+cell and at its nearer neighbour along x and along y (2 x 2 cells, as YOLOv5 assigns
+neighbour cells), so a peak one cell off still carries a trained box: the centre's
+offset from the cell (cells, in [-0.5, 1.5), ``model.cell_offset``) and log(w / STRIDE),
+log(h / STRIDE).
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ STRIDE = 4
 INPUT_HW = (384, 640)
 MIN_TRAIN_H, MIN_TRAIN_W, MIN_TRAIN_VISIBLE = 4.0, 2.0, 0.25
 MAX_OBJECTS = 96
+REG_CELLS = 4  # regression cells per object (2 x 2)
 
 
 @dataclass
@@ -110,12 +114,14 @@ def _photometric(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 def random_crop(
     img: np.ndarray, boxes: np.ndarray, crop_hw: tuple[int, int], rng: np.random.Generator,
-    scale_range: tuple[float, float] = (0.8, 1.25),
+    scale_range: tuple[float, float] = (0.8, 1.25), weights: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rescale by a random factor, crop ``crop_hw`` (biased toward objects), flip half the time.
 
-    Returns the crop, its boxes (clipped) and a mask of boxes that keep >= 60 % of
-    their area (the others become ignore regions).
+    Most crops are centred near an object drawn with probability ``weights`` (per box;
+    uniform when None), the rest placed uniformly. Returns the crop, its boxes
+    (clipped) and a mask of boxes that keep >= 60 % of their area (the others
+    become ignore regions).
     """
     s = float(np.exp(rng.uniform(np.log(scale_range[0]), np.log(scale_range[1]))))
     h, w = img.shape[:2]
@@ -125,7 +131,7 @@ def random_crop(
     b = boxes * np.array([sx, sy, sx, sy], dtype=np.float32)
     ch, cw = crop_hw
     if len(b) and rng.random() < 0.7:  # centre the crop near an object
-        k = int(rng.integers(len(b)))
+        k = int(rng.integers(len(b))) if weights is None else int(rng.choice(len(b), p=weights / weights.sum()))
         cx, cy = (b[k, 0] + b[k, 2]) / 2 + rng.uniform(-cw / 3, cw / 3), (b[k, 1] + b[k, 3]) / 2
         x0 = int(np.clip(cx - cw / 2, 0, nw - cw))
         y0 = int(np.clip(cy - ch / 2 + rng.uniform(-ch / 4, ch / 4), 0, nh - ch))
@@ -162,8 +168,8 @@ def gaussian_radius(h: float, w: float, min_overlap: float = 0.7) -> float:
 class Targets:
     heat: np.ndarray  # (C, h, w) float32 in [0, 1]
     mask: np.ndarray  # (h, w) float32: 0 inside ignored boxes
-    index: np.ndarray  # (K,) int64 flat cell index of each trained object's centre
-    reg: np.ndarray  # (K, 4) float32 offset x, y (cells, [0, 1)), log w, log h (cells)
+    index: np.ndarray  # (K,) int64 flat index of each regression cell (REG_CELLS per object)
+    reg: np.ndarray  # (K, 4) float32 centre offset x, y from the cell (cells), log w, log h (cells)
     valid: np.ndarray  # (K,) float32 1 for real entries
 
 
@@ -173,9 +179,10 @@ def encode(boxes: np.ndarray, classes: np.ndarray, train: np.ndarray, hw: tuple[
     gh, gw = hw[0] // STRIDE, hw[1] // STRIDE
     heat = np.zeros((num_classes, gh, gw), dtype=np.float32)
     mask = np.ones((gh, gw), dtype=np.float32)
-    index = np.zeros(MAX_OBJECTS, dtype=np.int64)
-    reg = np.zeros((MAX_OBJECTS, 4), dtype=np.float32)
-    valid = np.zeros(MAX_OBJECTS, dtype=np.float32)
+    k_max = MAX_OBJECTS * REG_CELLS
+    index = np.zeros(k_max, dtype=np.int64)
+    reg = np.zeros((k_max, 4), dtype=np.float32)
+    valid = np.zeros(k_max, dtype=np.float32)
     ys, xs = np.arange(gh, dtype=np.float32)[:, None], np.arange(gw, dtype=np.float32)[None, :]
     k = 0
     for box, cls, t in zip(boxes, classes, train, strict=True):
@@ -190,11 +197,15 @@ def encode(boxes: np.ndarray, classes: np.ndarray, train: np.ndarray, hw: tuple[
         g = np.exp(-((xs - ix) ** 2 + (ys - iy) ** 2) / (2 * sigma * sigma))
         np.maximum(heat[cls], g, out=heat[cls])
         heat[cls, iy, ix] = 1.0
-        if k < MAX_OBJECTS:
-            index[k] = iy * gw + ix
-            reg[k] = (cx - ix, cy - iy, math.log(max(x1 - x0, 1e-2)), math.log(max(y1 - y0, 1e-2)))
-            valid[k] = 1.0
-            k += 1
+        nx = ix + (1 if cx - ix >= 0.5 else -1)  # the nearer neighbour along each axis
+        ny = iy + (1 if cy - iy >= 0.5 else -1)
+        lw, lh = math.log(max(x1 - x0, 1e-2)), math.log(max(y1 - y0, 1e-2))
+        for jx, jy in ((ix, iy), (nx, iy), (ix, ny), (nx, ny)):
+            if k < k_max and 0 <= jx < gw and 0 <= jy < gh:
+                index[k] = jy * gw + jx
+                reg[k] = (cx - jx, cy - jy, lw, lh)
+                valid[k] = 1.0
+                k += 1
     mask = np.maximum(mask, heat.max(axis=0) >= 1.0)  # a trained centre is never masked
     return Targets(heat, mask, index, reg, valid)
 
@@ -202,16 +213,23 @@ def encode(boxes: np.ndarray, classes: np.ndarray, train: np.ndarray, hw: tuple[
 class TrainSampler:
     """Random training samples (crop, targets) from a ``Split``; every draw from ``rng``."""
 
-    def __init__(self, split: Split, crop_hw: tuple[int, int], num_classes: int, seed: int) -> None:
+    def __init__(self, split: Split, crop_hw: tuple[int, int], num_classes: int, seed: int,
+                 balance: float = 0.5) -> None:
+        """``balance``: crops centre on an object of class c with weight freq(c) ** -balance
+        (0: every object alike; 1: every class alike), so rare, small classes get seen."""
         self.split, self.crop_hw, self.num_classes = split, crop_hw, num_classes
         self.rng = np.random.default_rng(seed)
+        counts = np.bincount(np.concatenate(split.classes) if split.classes else np.zeros(0, np.int64),
+                             minlength=num_classes).astype(np.float64)
+        self.class_weight = np.where(counts > 0, np.maximum(counts, 1.0) ** -balance, 0.0)
 
     def sample(self, i: int) -> tuple[np.ndarray, Targets]:
         s = self.split
         train = trained_mask(s.boxes[i], s.visible[i])
         padded, scale, pad = letterbox(s.images[i], INPUT_HW)
         boxes = letterbox_boxes(s.boxes[i], scale, pad).astype(np.float32)
-        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng)
+        w = self.class_weight[s.classes[i]] * (0.1 + 0.9 * train)  # ignored objects seldom centre a crop
+        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng, weights=w)
         crop = _photometric(crop, self.rng)
         w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
         keep = (w > 0) & (h > 0)

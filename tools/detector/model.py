@@ -5,7 +5,8 @@ the letterboxed 640 x 360 camera). A plain conv backbone (strides 2..32) and a
 top-down neck produce stride-4 features; the head predicts per cell
 
 * ``heat`` (C,): logit of "an object of class c has its box centre in this cell";
-* ``reg`` (4,): the centre's offset inside the cell (2, in cells) and log(w / 4), log(h / 4).
+* ``reg`` (4,): the centre's offset from the cell (2, in cells, in (-0.5, 1.5):
+  ``cell_offset``) and log(w / 4), log(h / 4).
 
 ``Decoded`` (the exported graph) turns these into the YOLOv8 output layout
 ``[B, 4 + C, N]`` (N = H/4 * W/4 cells; rows cx, cy, w, h in input pixels, then the
@@ -73,12 +74,17 @@ class CenterDet(nn.Module):
         return self.heat(p4), self.reg(p4)
 
 
+def cell_offset(raw: torch.Tensor) -> torch.Tensor:
+    """Raw offset outputs -> the box centre's offset from its cell (cells), in (-0.5, 1.5)."""
+    return torch.sigmoid(raw) * 2.0 - 0.5
+
+
 def decode_boxes(reg: torch.Tensor) -> torch.Tensor:
     """(B, 4, h, w) raw regression -> (B, 4, h, w) boxes cx, cy, w, h in input pixels."""
     _, _, h, w = reg.shape
     ys = torch.arange(h, dtype=reg.dtype, device=reg.device).view(1, h, 1)
     xs = torch.arange(w, dtype=reg.dtype, device=reg.device).view(1, 1, w)
-    off = torch.sigmoid(reg[:, 0:2])
+    off = cell_offset(reg[:, 0:2])
     cx = (xs + off[:, 0]) * STRIDE
     cy = (ys + off[:, 1]) * STRIDE
     size = torch.exp(reg[:, 2:4].clamp(-4.0, 6.0)) * STRIDE
