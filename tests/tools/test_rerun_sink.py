@@ -15,7 +15,7 @@ from intent.alerts import Alert  # noqa: E402
 from intent.labels import Risk  # noqa: E402
 from sim.records import RecordCollector  # noqa: E402
 from sim.runner import Runner  # noqa: E402
-from sim.scenario import load_scenario  # noqa: E402
+from sim.scenario import load_scenario, with_detector  # noqa: E402
 from tools.rerun_sink import RerunSink  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,6 +45,7 @@ def load(path: Path) -> tuple[Counter, set[str], dict[str, list]]:
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     sc = load_scenario(ROOT / "scenarios" / "ped_crossing_nearside.yaml").model_copy(update={"duration": 2.0})
+    sc = with_detector(sc, "gt")  # the sink is under test, not the detector: ground-truth tracks
     path = tmp_path_factory.mktemp("rrd") / "sub" / "run.rrd"
     sink, col = RerunSink(path), Collect()
     summary = Runner(sc, sinks=[col, sink], render=True).run()
