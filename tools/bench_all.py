@@ -1,6 +1,6 @@
 """``lookahead bench all``: every benchmark in one process, one JSON, one table.
 
-Runs ``bench sim``, ``bench track``, ``bench sinks``, ``bench env``
+Runs ``bench sim``, ``bench track``, ``bench detect``, ``bench sinks``, ``bench env``
 (``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 vs 2
 workers) and the full loop (rendered, gt detector, every stage) on the same
 machine in one run; cases are prefixed with their benchmark's name and all
@@ -17,6 +17,7 @@ from sim.records import RecordCollector
 from sim.runner import STAGES, Runner
 from sim.scenario import load_scenario
 from tools.bench import bench_sim, case, machine
+from tools.bench_detect import bench_detect
 from tools.bench_env import bench_env
 from tools.bench_sinks import bench_sinks
 from tools.bench_sweep import bench_sweep
@@ -43,6 +44,7 @@ def bench_all(repeats: int = 3) -> dict:
     parts = {
         "sim": bench_sim(scen / "highway_traffic.yaml"),
         "track": bench_track(None, repeats=repeats),
+        "detect": bench_detect(repeats=repeats),
         "sinks": bench_sinks(scen / "ped_crossing_nearside.yaml", repeats=repeats),
         "env": bench_env(scen / "highway_traffic.yaml"),
         "sweep": bench_sweep(scen / "sweeps" / "aeb_stationary_car.yaml"),
@@ -53,4 +55,6 @@ def bench_all(repeats: int = 3) -> dict:
         for k, v in part["cases"].items():
             cases[f"{name}/{k}"] = {key: v[key] for key in ("ms_median", "ms_p95", "n") if key in v}
         ratios.update(part.get("ratios", {}))
-    return {"machine": machine(), "cases": cases, "ratios": ratios, "loop_fps": parts["loop"]["fps"]}
+    track = {k: parts["track"][k] for k in ("accuracy", "accuracy_pooled", "sort_reference") if k in parts["track"]}
+    return {"machine": machine(), "cases": cases, "ratios": ratios, "loop_fps": parts["loop"]["fps"],
+            "detect_fps": parts["detect"]["fps"], "track_accuracy": track}
