@@ -34,6 +34,16 @@ class Rect:
     x1: float
     y1: float
 
+    def long_axis(self) -> tuple[np.ndarray, np.ndarray, float, float]:
+        """(start, unit direction, length, depth) of the centre line along the long side:
+        ``start`` (world xy, m) is where that line enters the rectangle, ``depth`` is the
+        short side (m)."""
+        cx, cy = (self.x0 + self.x1) / 2, (self.y0 + self.y1) / 2
+        lx, ly = self.x1 - self.x0, self.y1 - self.y0
+        if lx >= ly:
+            return np.array([self.x0, cy]), np.array([1.0, 0.0]), lx, ly
+        return np.array([cx, self.y0]), np.array([0.0, 1.0]), ly, lx
+
 
 @dataclass(frozen=True)
 class RoadLayout:

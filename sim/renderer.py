@@ -699,12 +699,7 @@ class Renderer:
     ) -> tuple[_Row, float, float]:
         """Row along the long axis of rect ``r`` through its centre line; returns it and
         the rect's (length, depth)."""
-        cx, cy = (r.x0 + r.x1) / 2, (r.y0 + r.y1) / 2
-        lx, ly = r.x1 - r.x0, r.y1 - r.y0
-        if lx >= ly:
-            origin, d, length, depth = np.array([r.x0, cy]), np.array([1.0, 0.0]), lx, ly
-        else:
-            origin, d, length, depth = np.array([cx, r.y0]), np.array([0.0, 1.0]), ly, lx
+        origin, d, length, depth = r.long_axis()
         n = max(int((length - offset) // spacing) + 1, 0)
         return _Row(origin, d, length, spacing, offset, n, reach, depth / 2), length, depth
 

@@ -140,6 +140,7 @@ class RunSummary:
     collisions: list = field(default_factory=list)
     ended_on_collision: bool = False
     renderer: str | None = None
+    error: str | None = None  # "Type: message" of an exception that ended the run early
 
     def to_dict(self) -> dict:
         return {
@@ -149,6 +150,7 @@ class RunSummary:
             "collisions": [c.to_dict() for c in self.collisions],
             "ended_on_collision": self.ended_on_collision,
             "renderer": self.renderer,
+            "error": self.error,
         }
 
 
@@ -258,6 +260,9 @@ class Runner:
                 if ended:
                     summary.ended_on_collision = True
                     break
+        except BaseException as e:  # told to the sinks (an incomplete run), then re-raised
+            summary.error = f"{type(e).__name__}: {e}".rstrip(": ")
+            raise
         finally:
             summary.ticks, summary.frames, summary.t_end = self.world.tick, self.frame_index, self.world.t
             summary.collisions = list(self.world.collisions)

@@ -617,8 +617,12 @@ def _format_validation(path: str, err: ValidationError, root: yaml.Node | None) 
     return f"{where}: {field_path or '(top level)'}: {msg}{more}"
 
 
-def parse_scenario(text: str, path: str = "<string>") -> Scenario:
-    """Validate scenario YAML text; raises ``ScenarioError`` with one clear line."""
+def parse_yaml_model(
+    text: str, path: str, model: type[BaseModel], what: str, error: type[ScenarioError] | None = None,
+) -> Any:
+    """Validate YAML ``text`` as pydantic ``model``; a one-line ``error`` (``ScenarioError``)
+    naming ``path:line`` and the field when the YAML or a value is wrong."""
+    err = error or ScenarioError
     try:
         root = yaml.compose(text)
         data = yaml.safe_load(text)
@@ -626,13 +630,18 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
         mark = getattr(e, "problem_mark", None)
         where = f"{path}:{mark.line + 1}" if mark else path
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise ScenarioError(f"{where}: malformed YAML: {problem}") from None
+        raise err(f"{where}: malformed YAML: {problem}") from None
     if not isinstance(data, dict):
-        raise ScenarioError(f"{path}: expected a mapping of scenario fields, got {type(data).__name__}")
+        raise err(f"{path}: expected a mapping of {what} fields, got {type(data).__name__}")
     try:
-        return Scenario.model_validate(data)
+        return model.model_validate(data)
     except ValidationError as e:
-        raise ScenarioError(_format_validation(path, e, root)) from None
+        raise err(_format_validation(path, e, root).replace(": (top level): ", ": ")) from None
+
+
+def parse_scenario(text: str, path: str = "<string>") -> Scenario:
+    """Validate scenario YAML text; raises ``ScenarioError`` with one clear line."""
+    return parse_yaml_model(text, path, Scenario, "scenario")
 
 
 def read_text_file(path: str | Path, what: str = "scenario", error: type[ScenarioError] | None = None) -> str:

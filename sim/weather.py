@@ -166,12 +166,7 @@ def lamp_heads(layout: RoadLayout) -> np.ndarray:
     road = np.array([[(a.x0 + a.x1) / 2, (a.y0 + a.y1) / 2] for a in asphalt]).reshape(-1, 2)
     out = []
     for z in layout.structure_zones:
-        cx, cy = (z.x0 + z.x1) / 2, (z.y0 + z.y1) / 2
-        lx, ly = z.x1 - z.x0, z.y1 - z.y0
-        if lx >= ly:
-            origin, d, length, depth = np.array([z.x0, cy]), np.array([1.0, 0.0]), lx, ly
-        else:
-            origin, d, length, depth = np.array([cx, z.y0]), np.array([0.0, 1.0]), ly, lx
+        origin, d, length, depth = z.long_axis()
         n_posts = int((length - 10.0) // 30.0) + 1
         if int((length - 6.0) // 12.0) + 1 <= 0 or n_posts <= 0:
             continue

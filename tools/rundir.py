@@ -97,6 +97,6 @@ class RunDirWriter:
             for t in self._timings:
                 f.write(json.dumps({k: round(v, 3) for k, v in t.items()}) + "\n")
         run = json.loads((self.dir / "run.json").read_text())
-        run["complete"] = True
+        run["complete"] = summary.get("error") is None
         run["summary"] = jsonable(summary)
         (self.dir / "run.json").write_text(json.dumps(run, indent=2, sort_keys=True) + "\n")

@@ -22,7 +22,8 @@ most the uncommitted batch; an OS crash may lose the last commits too, never
 consistency). Rows are buffered in memory and written in one transaction when
 ``batch_frames`` frames have accumulated (at the next ``on_tick``, so every
 frame's timings are complete) and at ``on_end``. ``runs.complete`` becomes 1
-only in ``on_end`` and only when no exception is propagating through the runner.
+only in ``on_end`` and only when the run summary carries no ``error`` (an exception that
+ended the run).
 
 The schema version is ``PRAGMA user_version`` (``SCHEMA_VERSION``) and the file
 is tagged with ``PRAGMA application_id`` (``APPLICATION_ID``); any other file
@@ -34,7 +35,6 @@ from __future__ import annotations
 import json
 import logging
 import sqlite3
-import sys
 from datetime import UTC, datetime
 from itertools import repeat
 from pathlib import Path
@@ -315,13 +315,12 @@ class SqliteStore:
         if self.run_id is None:
             self.close()
             return
-        error = sys.exc_info()[1]
+        error = summary.get("error")
         try:
             self.flush()
             self._conn().execute(
                 "UPDATE runs SET ended = ?, complete = ?, error = ?, summary = ? WHERE id = ?",
-                (_now(), int(error is None), None if error is None else f"{type(error).__name__}: {error}".rstrip(": "),
-                 json.dumps(jsonable(summary), sort_keys=True), self.run_id),
+                (_now(), int(error is None), error, json.dumps(jsonable(summary), sort_keys=True), self.run_id),
             )
         finally:
             self.close()

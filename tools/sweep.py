@@ -71,6 +71,7 @@ from sim.scenario import (
     Strict,
     _format_validation,
     load_scenario,
+    parse_yaml_model,
     read_text_file,
 )
 
@@ -524,19 +525,7 @@ def expand(spec: SweepSpec, base: Scenario, sweep_file: str = "<sweep>") -> list
 
 
 def parse_sweep(text: str, path: str) -> SweepSpec:
-    try:
-        root = yaml.compose(text)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark else path
-        raise SweepError(f"{where}: malformed YAML: {getattr(e, 'problem', None) or e}") from None
-    if not isinstance(data, dict):
-        raise SweepError(f"{path}: expected a mapping of sweep fields, got {type(data).__name__}")
-    try:
-        return SweepSpec.model_validate(data)
-    except ValidationError as e:
-        raise SweepError(_format_validation(path, e, root).replace(": (top level): ", ": ")) from None
+    return parse_yaml_model(text, path, SweepSpec, "sweep", SweepError)
 
 
 def load_sweep(path: str | Path) -> tuple[SweepSpec, Path, list[Variant]]:

@@ -180,12 +180,16 @@ def test_a_run_that_raises_is_not_complete(tmp_path):
                 raise RuntimeError("boom")
         def on_end(self, summary): ...
 
+    from tools.rundir import RunDirWriter
+
     path = tmp_path / "boom.sqlite"
     sc = load_scenario(PED)
     with pytest.raises(RuntimeError):
-        Runner(sc, sinks=[SqliteStore(path, sc), Boom()], render=False).run()
+        Runner(sc, sinks=[RunDirWriter(tmp_path / "run", sc), SqliteStore(path, sc), Boom()], render=False).run()
     conn = sqlite3.connect(path)
     assert conn.execute("SELECT complete, error FROM runs").fetchone() == (0, "RuntimeError: boom")
+    run = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert run["complete"] is False and run["summary"]["error"] == "RuntimeError: boom"
     assert conn.execute("SELECT COUNT(*) FROM frames").fetchone()[0] == 4
 
 
