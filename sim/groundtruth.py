@@ -170,8 +170,9 @@ def compute_ground_truth(
 
     Args:
         seg: the renderer's segmentation (H, W) of actor ids, or None without rendering.
-        silhouettes: ``callable(ids) -> seg`` rendering only the given actors (for
-            visible fractions of occluded actors); required when ``seg`` is given.
+        silhouettes: ``callable(ids, window) -> seg`` rendering only the given actors
+            (for visible fractions of occluded actors), only inside the pixel ``window``
+            (u0, v0, u1, v1) that holds their boxes; required when ``seg`` is given.
     """
     st = world.agent_states()
     ox, oy, oyaw = world.ego_pose()
@@ -230,7 +231,11 @@ def compute_ground_truth(
                 if all(not ov[k, j] for j in group):
                     group.append(k)
             todo = [k for k in todo if k not in group]
-            sil = silhouettes([int(ids[k]) for k in group])
+            # only the window holding the group's amodal boxes (+2 px) is rendered
+            box = clipped[group]
+            window = (int(np.floor(box[:, 0].min())) - 2, int(np.floor(box[:, 1].min())) - 2,
+                      int(np.ceil(box[:, 2].max())) + 2, int(np.ceil(box[:, 3].max())) + 2)
+            sil = silhouettes([int(ids[k]) for k in group], window)
             _, full = mask_boxes(sil, ids[group])
             vis_frac[group] = np.clip(pixels[group] / np.maximum(full, 1), 0.0, 1.0)
     else:

@@ -82,9 +82,14 @@ def gl_projection(
 
     ``offset`` (du, dv) pixels is added to the principal point (rasteriser sampling fixes).
     """
-    W, H = camera.width, camera.height
-    fx, fy, s = camera.K[0, 0], camera.K[1, 1], camera.K[0, 1]
-    cx, cy = camera.K[0, 2] + offset[0], camera.K[1, 2] + offset[1]
+    return _gl_projection(camera.K, camera.width, camera.height, near, far, offset)
+
+
+def _gl_projection(
+    K: np.ndarray, W: int, H: int, near: float, far: float, offset: tuple[float, float]
+) -> np.ndarray:
+    fx, fy, s = K[0, 0], K[1, 1], K[0, 1]
+    cx, cy = K[0, 2] + offset[0], K[1, 2] + offset[1]
     return np.array(
         [
             [2 * fx / W, -2 * s / W, 1 - 2 * cx / W, 0.0],
@@ -532,8 +537,8 @@ class Renderer:
         )
         log.info("PyBullet renderer backend: %s (%dx%d)", self.backend, camera.width, camera.height)
         # TinyRenderer samples pixel corners rather than centres: shift by half a pixel.
-        offset = (-0.5, 0.5) if self.backend == "tiny" else (0.0, 0.0)
-        self._proj = tuple(gl_projection(camera, self.near, self.far, offset).T.ravel().tolist())
+        self._offset = (-0.5, 0.5) if self.backend == "tiny" else (0.0, 0.0)
+        self._proj = tuple(gl_projection(camera, self.near, self.far, self._offset).T.ravel().tolist())
         self._lut = np.full(64, -1, dtype=np.int32)  # body uid + 1 -> actor id
         self._actors: dict[int, _ActorBody] = {}
         self._warm = False
@@ -905,17 +910,28 @@ class Renderer:
         d /= np.linalg.norm(d)
         return (d * (1e6 if self.backend == "egl" else 1.0)).tolist()
 
-    def _capture(self, ego_pose: Sequence[float]) -> tuple:
+    def _capture(self, ego_pose: Sequence[float], window: tuple[int, int, int, int] | None = None) -> tuple:
+        """``getCameraImage`` of the whole frame, or of the pixel ``window`` (u0, v0, u1, v1)
+        only: the same pinhole with the principal point moved, so its pixels are exactly
+        the frame's pixels there."""
         view = tuple(gl_view(self.camera, ego_pose).T.ravel().tolist())
         if not self._warm:  # the EGL plugin prints a banner on its first frame
             self._warm = True
             with _quiet_c_output():
-                return self._capture(ego_pose)
+                return self._capture(ego_pose, window)
+        width, height, proj = self.camera.width, self.camera.height, self._proj
+        if window is not None:
+            u0, v0, u1, v1 = window
+            width, height = u1 - u0, v1 - v0
+            K = self.camera.K.copy()
+            K[0, 2] -= u0
+            K[1, 2] -= v0
+            proj = tuple(_gl_projection(K, width, height, self.near, self.far, self._offset).T.ravel().tolist())
         return p.getCameraImage(
-            self.camera.width,
-            self.camera.height,
+            width,
+            height,
             view,
-            self._proj,
+            proj,
             lightDirection=self._light(ego_pose),
             lightColor=[1.0, 1.0, 0.97],
             lightAmbientCoeff=0.55,
@@ -955,12 +971,28 @@ class Renderer:
         return RenderResult(rgb=rgb, depth=depth, seg=self._lut[raw + 1])
 
     def silhouettes(
-        self, ego_pose: Sequence[float], actors: Mapping[int, Sequence[float]], ids: Sequence[int]
+        self, ego_pose: Sequence[float], actors: Mapping[int, Sequence[float]], ids: Sequence[int],
+        window: tuple[int, int, int, int] | None = None,
     ) -> np.ndarray:
         """(H, W) int32 segmentation of a frame with ONLY actors ``ids`` (no other actors,
-        no roadside structures; the ground stays): their unoccluded silhouettes."""
+        no roadside structures; the ground stays): their unoccluded silhouettes.
+
+        ``window`` (u0, v0, u1, v1) px renders only that part of the frame (the rest is
+        background, -1): enough when it holds the actors' boxes, and much cheaper."""
         self._place_actors({i: actors[i] for i in ids})
         self._update_scenery(ego_pose, structures=False)
+        W, H = self.camera.width, self.camera.height
+        if window is not None:
+            u0, v0, u1, v1 = (int(v) for v in window)
+            u0, v0, u1, v1 = max(u0, 0), max(v0, 0), min(u1, W), min(v1, H)
+            if u1 - u0 < 1 or v1 - v0 < 1:
+                return np.full((H, W), -1, dtype=np.int32)
+            if (u0, v0, u1, v1) != (0, 0, W, H):
+                out = self._capture(ego_pose, (u0, v0, u1, v1))
+                crop = np.asarray(out[4], dtype=np.int32).reshape(v1 - v0, u1 - u0)
+                seg = np.full((H, W), -1, dtype=np.int32)
+                seg[v0:v1, u0:u1] = self._lut[crop + 1]
+                return seg
         out = self._capture(ego_pose)
         return self._lut[self._shape(out[4], np.int32)[..., 0] + 1]
 

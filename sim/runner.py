@@ -220,8 +220,8 @@ class Runner:
             if self.weather is not None:  # only the image: depth, seg and ground truth stay exact
                 image = self.weather.apply(image, depth, self.frame_index, pose)
 
-            def silhouettes(ids: list[int]) -> np.ndarray:
-                return self.renderer.silhouettes(pose, poses, ids)
+            def silhouettes(ids: list[int], window: tuple[int, int, int, int] | None = None) -> np.ndarray:
+                return self.renderer.silhouettes(pose, poses, ids, window)
 
         t1 = time.perf_counter()
         gt = compute_ground_truth(w, self.camera, self.intent_config, seg=seg, silhouettes=silhouettes)

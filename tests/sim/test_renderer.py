@@ -216,6 +216,9 @@ def test_silhouettes_show_an_occluded_actor_whole(
     try:
         full = r.render(EGO, poses)
         alone = r.silhouettes(EGO, poses, [2])
+        b = mask_box(alone, 2)[0]
+        window = (int(b[0]) - 3, int(b[1]) - 3, int(b[2]) + 3, int(b[3]) + 3)
+        windowed = r.silhouettes(EGO, poses, [2], window)
         again = r.render(EGO, poses)
     finally:
         r.remove_actor(1)
@@ -225,6 +228,8 @@ def test_silhouettes_show_an_occluded_actor_whole(
     assert alone.dtype == np.int32 and alone.shape == full.seg.shape
     proj = projected_box(tele, world_to_ego_box(car, poses[2], EGO, 0.0))
     assert iou(mask_box(alone, 2)[0], proj) >= 0.95
+    # rendering only a window around the actor gives exactly the same pixels
+    np.testing.assert_array_equal(windowed, alone)
     np.testing.assert_array_equal(again.seg, full.seg)  # the scene comes back afterwards
     np.testing.assert_array_equal(again.rgb, full.rgb)
 
