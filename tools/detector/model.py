@@ -79,6 +79,11 @@ def cell_offset(raw: torch.Tensor) -> torch.Tensor:
     return torch.sigmoid(raw) * 2.0 - 0.5
 
 
+def cell_size(raw: torch.Tensor) -> torch.Tensor:
+    """Raw log-size outputs -> box width, height in cells (clamped to e^-4 .. e^6)."""
+    return torch.exp(raw.clamp(-4.0, 6.0))
+
+
 def decode_boxes(reg: torch.Tensor) -> torch.Tensor:
     """(B, 4, h, w) raw regression -> (B, 4, h, w) boxes cx, cy, w, h in input pixels."""
     _, _, h, w = reg.shape
@@ -87,7 +92,7 @@ def decode_boxes(reg: torch.Tensor) -> torch.Tensor:
     off = cell_offset(reg[:, 0:2])
     cx = (xs + off[:, 0]) * STRIDE
     cy = (ys + off[:, 1]) * STRIDE
-    size = torch.exp(reg[:, 2:4].clamp(-4.0, 6.0)) * STRIDE
+    size = cell_size(reg[:, 2:4]) * STRIDE
     return torch.stack([cx, cy, size[:, 0], size[:, 1]], dim=1)
 
 

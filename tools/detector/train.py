@@ -80,14 +80,14 @@ def reg_loss(reg, index, target, valid):
     """L1 of offset and log size + (1 - IoU) at the objects' regression cells (mean over entries)."""
     import torch
 
-    from tools.detector.model import cell_offset
+    from tools.detector.model import cell_offset, cell_size
 
     b, c = reg.shape[:2]
     flat = reg.reshape(b, c, -1).permute(0, 2, 1)  # (B, HW, 4)
     pred = torch.gather(flat, 1, index[..., None].expand(-1, -1, c))  # (B, K, 4)
     off = cell_offset(pred[..., :2])
     err = torch.cat([off - target[..., :2], pred[..., 2:] - target[..., 2:]], dim=-1).abs().sum(-1)
-    box_p = torch.cat([off, torch.exp(pred[..., 2:].clamp(-4.0, 6.0))], dim=-1)
+    box_p = torch.cat([off, cell_size(pred[..., 2:])], dim=-1)
     box_t = torch.cat([target[..., :2], torch.exp(target[..., 2:])], dim=-1)
     err = err + (1.0 - box_iou_cxcywh(box_p, box_t))
     n = valid.sum().clamp(min=1.0)
