@@ -53,7 +53,6 @@ log = logging.getLogger(__name__)
 SCHEMA_VERSION = 2
 APPLICATION_ID = 0x4C4B4844  # "LKHD"
 BUSY_TIMEOUT_S = 30.0  # wait this long for another writer (parallel suite workers share a DB)
-_SQLITE_MAGIC = b"SQLite format 3\x00"
 
 _LABELS = np.array([LABEL_NAMES[k] for k in sorted(LABEL_NAMES)], dtype=object)
 _BEHAVIOURS = np.array([BEHAVIOUR_NAMES[k] for k in sorted(BEHAVIOUR_NAMES)], dtype=object)
@@ -123,31 +122,36 @@ class StoreError(ValueError):
     """A database file that cannot be used (not SQLite, another schema, unwritable); ``str()`` is one line."""
 
 
-def _describe(path: Path, head: bytes, size: int) -> str:
-    return f"{path}: not a SQLite database (found {size} bytes starting {head[:16]!r})"
+def _not_a_database(path: Path, exc: sqlite3.Error) -> str:
+    """The one-line error for a file SQLite refuses, with its size and first bytes when readable.
+
+    Only called once SQLite has refused the file: reading it with a plain ``open`` while this
+    process holds a SQLite connection to it would drop that connection's POSIX locks (closing
+    any descriptor of a file releases all of a process's locks on it), and another process
+    closing its last connection could then checkpoint and delete a WAL still being written.
+    """
+    try:
+        with path.open("rb") as f:
+            head = f.read(16)
+        size = path.stat().st_size
+    except OSError:
+        return f"{path}: not a SQLite database ({exc})"
+    return f"{path}: not a SQLite database (found {size} bytes starting {head!r})"
 
 
 def open_db(path: str | Path, create: bool = True) -> sqlite3.Connection:
     """Open (and with ``create`` initialise) a lookahead store; ``StoreError`` for anything else.
 
     Nothing is written to a file that fails the checks. ``create=False`` opens read-only.
-    The connection is in autocommit mode (explicit ``BEGIN``/``COMMIT``).
+    The connection is in autocommit mode (explicit ``BEGIN``/``COMMIT``). The file is only
+    ever read through SQLite (see ``_not_a_database`` for why).
     """
     path = Path(path)
     if path.is_dir():
         raise StoreError(f"{path}: is a directory, not a SQLite database")
-    if path.exists():
-        try:
-            with path.open("rb") as f:
-                head = f.read(100)
-        except OSError as e:
-            raise StoreError(f"{path}: cannot read ({e.strerror or e})") from None
-        size = path.stat().st_size
-        if size and (size < 100 or not head.startswith(_SQLITE_MAGIC)):
-            raise StoreError(_describe(path, head, size))
-    elif not create:
-        raise StoreError(f"{path}: no such database file")
-    else:
+    if not path.exists():
+        if not create:
+            raise StoreError(f"{path}: no such database file")
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as e:
@@ -167,6 +171,8 @@ def open_db(path: str | Path, create: bool = True) -> sqlite3.Connection:
             _probe_write(conn, path)
     except sqlite3.Error as e:
         conn.close()
+        if getattr(e, "sqlite_errorcode", None) == sqlite3.SQLITE_NOTADB or "not a database" in str(e):
+            raise StoreError(_not_a_database(path, e)) from None
         raise StoreError(f"{path}: cannot use as a database ({e})") from None
     except StoreError:
         conn.close()

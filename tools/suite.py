@@ -72,7 +72,14 @@ def run_one(
         from tools.rerun_sink import RerunSink
 
         sinks.append(RerunSink(run_dir / "run.rrd"))
-    summary = Runner(sc, sinks=sinks, render=render).run()
+    try:
+        runner = Runner(sc, sinks=sinks, render=render)
+    except BaseException:  # e.g. a detector that cannot run: release the sinks' files now
+        for sink in sinks:
+            if hasattr(sink, "close"):
+                sink.close()
+        raise
+    summary = runner.run()
     metrics = score_run(Path(out_dir))
     return {"name": sc.name, "dir": out_dir, "summary": summary.to_dict(), "metrics": metrics}
 

@@ -193,6 +193,49 @@ def test_a_run_that_raises_is_not_complete(tmp_path):
     assert conn.execute("SELECT COUNT(*) FROM frames").fetchone()[0] == 4
 
 
+_OTHER_PROCESS = """
+import sqlite3, sys
+c = sqlite3.connect(sys.argv[1], isolation_level=None, timeout=30)
+c.execute("INSERT INTO t VALUES (?)", (sys.argv[2],))
+if sys.argv[3] == "hold":
+    print("ready", flush=True)
+    sys.stdin.readline()
+c.close()
+"""
+
+
+def test_a_second_open_in_one_process_keeps_the_first_ones_writes_safe(tmp_path):
+    # Two stores on one file in one process (a pool worker whose failed variant's store was
+    # not yet collected) while other processes open and close theirs: nothing is lost.
+    # Reading the file with a plain open() here used to drop this process's SQLite locks, so
+    # another process closing its last connection checkpointed and deleted a WAL still in use.
+    from tools.store import open_db
+
+    path = tmp_path / "shared.sqlite"
+    first = open_db(path)
+    first.execute("CREATE TABLE t (v TEXT)")
+    second = open_db(path)
+
+    def other(value: str, hold: bool = False):
+        args = [sys.executable, "-c", _OTHER_PROCESS, str(path), value, "hold" if hold else "go"]
+        if not hold:
+            return subprocess.run(args, check=True, timeout=60)
+        proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        assert proc.stdout.readline().strip() == "ready"
+        return proc
+
+    other("a")  # opens, writes, closes: not the last connection, so leaves the WAL alone
+    assert (tmp_path / "shared.sqlite-wal").exists()
+    held = other("b", hold=True)
+    second.execute("INSERT INTO t VALUES ('ours')")
+    second.close()
+    first.close()
+    held.communicate("\n", timeout=60)
+    assert held.returncode == 0
+    with sqlite3.connect(path) as conn:
+        assert sorted(r[0] for r in conn.execute("SELECT v FROM t")) == ["a", "b", "ours"]
+
+
 def test_foreign_files_raise_and_stay_untouched(tmp_path):
     sc = load_scenario(PED)
     text = tmp_path / "notes.db"
