@@ -110,12 +110,25 @@ class TrackerConfig:
             ``[low_score, high_score)`` enter stage 2.
         new_track_score: minimum score of an unmatched detection to start a track.
         match_iou: minimum IoU of a stage-1 (high-score) match.
+        min_match_size: association IoU is computed on boxes widened and
+            heightened about their centres to at least this many px, so that
+            one pixel of jitter does not break the track of a distant object a
+            few pixels wide (0 = the boxes as they are). Outputs are unchanged.
         second_match_iou: minimum IoU of a stage-2 (low-score) match.
         min_hits: matches needed for a tentative track to become confirmed.
         max_lost_s: a lost track is removed after this long without a match, s.
         tentative_max_lost_frames: a tentative track is removed after more
             consecutive misses than this.
-        per_class: associate only detections and tracks of the same class.
+        per_class: associate detections and tracks of the same class only (or,
+            with ``class_switch_cost``, prefer them).
+        class_switch_cost: with ``per_class``, a detection of another class than
+            the track's may still match it at this extra cost (added to 1 - IoU);
+            None = never. Keeps the identity of an object whose detector flickers
+            between similar classes (pedestrian / cyclist).
+        class_memory: how much of a track's class evidence survives each match,
+            in [0, 1): the track's class is the argmax of its detections' scores
+            summed per class, each earlier match weighted down by this factor;
+            0 = the class of its latest detection.
         reid_weight: weight in [0, 1] of the appearance cosine distance in the
             stage-1 cost; 0 disables appearance even when features are passed.
         reid_max_distance: cosine distance under which a lost track may be
@@ -141,15 +154,18 @@ class TrackerConfig:
             of its box size, per frame.
     """
 
-    high_score: float = 0.5
+    high_score: float = 0.45
     low_score: float = 0.1
-    new_track_score: float = 0.5
+    new_track_score: float = 0.45
     match_iou: float = 0.3
-    second_match_iou: float = 0.5
+    min_match_size: float = 8.0
+    second_match_iou: float = 0.3
     min_hits: int = 2
     max_lost_s: float = 1.0
     tentative_max_lost_frames: int = 1
     per_class: bool = True
+    class_switch_cost: float | None = 0.2
+    class_memory: float = 0.9
     reid_weight: float = 0.0
     reid_max_distance: float = 0.3
     feature_momentum: float = 0.9
@@ -165,6 +181,7 @@ class TrackerConfig:
         checks = {
             "low_score <= high_score": self.low_score <= self.high_score,
             "0 <= match_iou <= 1": 0.0 <= self.match_iou <= 1.0,
+            "min_match_size >= 0": self.min_match_size >= 0.0,
             "0 <= second_match_iou <= 1": 0.0 <= self.second_match_iou <= 1.0,
             "min_hits >= 1": self.min_hits >= 1,
             "max_lost_s >= 0": self.max_lost_s >= 0.0,
@@ -172,6 +189,8 @@ class TrackerConfig:
             "tentative_max_lost_frames >= 0": self.tentative_max_lost_frames >= 0,
             "0 <= reid_weight <= 1": 0.0 <= self.reid_weight <= 1.0,
             "0 <= feature_momentum < 1": 0.0 <= self.feature_momentum < 1.0,
+            "0 <= class_memory < 1": 0.0 <= self.class_memory < 1.0,
+            "class_switch_cost >= 0 or None": self.class_switch_cost is None or self.class_switch_cost >= 0.0,
             "max_abs_coord > 0": self.max_abs_coord > 0.0,
             "std weights > 0": self.std_weight_position > 0
             and self.std_weight_velocity > 0
@@ -410,6 +429,15 @@ def _iou(a: np.ndarray, b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
     return inter / np.maximum(union, _TINY)
 
 
+def _at_least(xyxy: np.ndarray, cxcywh: np.ndarray | None, size: float) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes grown about their centres to at least ``size`` px wide and high: (xyxy, cxcywh)."""
+    c = _cxcywh(xyxy) if cxcywh is None else cxcywh
+    grown = c.copy()
+    np.maximum(grown[:, 2:], size, out=grown[:, 2:])
+    half = grown[:, 2:] / 2.0
+    return np.concatenate([grown[:, :2] - half, grown[:, :2] + half], axis=1), grown
+
+
 # ---------------------------------------------------------------- track table
 # Live tracks are rows [0, n) of preallocated arrays, in birth order (the order
 # association sees them in, as a list would); the integer fields are the
@@ -460,6 +488,7 @@ class Tracker:
         """Forget all tracks, restart ids at 1 and zero the counters."""
         self._n = 0
         self._feat: np.ndarray | None = None
+        self._votes = np.zeros((0, 0))  # (capacity, classes + 1): column class_id + 1 (see _class_votes)
         self._alloc(16)
         self._next_id = 1
         self.frame_count = 0
@@ -482,13 +511,15 @@ class Tracker:
         if self._feat is not None:
             feat = np.full((capacity, self._feat.shape[1]), np.nan)
             feat[:n] = self._feat[:n]
-        self._x, self._P, self._score, self._ints, self._feat = x, P, score, ints, feat
+        votes = np.zeros((capacity, self._votes.shape[1]))
+        votes[:n] = self._votes[:n]
+        self._x, self._P, self._score, self._ints, self._feat, self._votes = x, P, score, ints, feat, votes
         self._track_id = ints[:, _ID]
 
     def _keep(self, keep: np.ndarray) -> None:
         """Remove the live rows where ``keep`` (n,) is False, preserving the order of the others."""
         n, m = self._n, int(np.count_nonzero(keep))
-        for a in (self._x, self._P, self._score, self._ints) + (() if self._feat is None else (self._feat,)):
+        for a in (self._x, self._P, self._score, self._ints, self._votes) + (() if self._feat is None else (self._feat,)):
             a[:m] = a[:n][keep]
         self._n = m
 
@@ -544,6 +575,15 @@ class Tracker:
         keep = ok[rows, cols]
         return rows[keep], cols[keep]
 
+    def _class_gate(
+        self, cost: np.ndarray, ok: np.ndarray, trk_class: np.ndarray, det_class: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """``per_class`` cost and gate: other-class pairs barred, or charged ``class_switch_cost``."""
+        same = trk_class[:, None] == det_class
+        if self.config.class_switch_cost is None:
+            return cost, ok & same
+        return np.where(same, cost, cost + self.config.class_switch_cost), ok
+
     def _appearance(
         self, cost: np.ndarray, ok: np.ndarray, feats: np.ndarray, lost: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -595,7 +635,11 @@ class Tracker:
         unmatched_high = high
         if n:
             ints = self._ints[:n]
-            iou = _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
+            if cfg.min_match_size > 0:
+                pb, pm = _at_least(boxes, meas, cfg.min_match_size)
+                iou = _iou(_at_least(self._x[:n] @ _STATE_TO_XYXY, None, cfg.min_match_size)[0], pb, pm[:, 2] * pm[:, 3])
+            else:
+                iou = _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
             trk_class = ints[:, _CLASS]
 
             # Stage 1: high-score detections against every track.
@@ -606,7 +650,7 @@ class Tracker:
                 if feats is not None:
                     cost, ok = self._appearance(cost, ok, feats.take(high, axis=0), ints[:, _STATE] == _LOST)
                 if cfg.per_class:
-                    ok &= trk_class[:, None] == (classes if all_high else classes.take(high))
+                    cost, ok = self._class_gate(cost, ok, trk_class, classes if all_high else classes.take(high))
                 trk, cols = self._assign(cost, ok)
                 det = cols if all_high else high.take(cols)
                 if feats is not None:
@@ -628,9 +672,10 @@ class Tracker:
                 if len(rest):
                     iou2 = iou.take(rest, axis=0).take(low, axis=1)
                     ok = iou2 >= cfg.second_match_iou
+                    cost2 = 1.0 - iou2
                     if cfg.per_class:
-                        ok &= trk_class.take(rest)[:, None] == classes.take(low)
-                    rows, cols = self._assign(1.0 - iou2, ok)
+                        cost2, ok = self._class_gate(cost2, ok, trk_class.take(rest), classes.take(low))
+                    rows, cols = self._assign(cost2, ok)
                     if len(rows):
                         trk, det = np.concatenate([trk, rest.take(rows)]), np.concatenate([det, low.take(cols)])
                         if jumped is not None:
@@ -686,7 +731,7 @@ class Tracker:
         ints = self._ints.take(trk, axis=0)
         ints[:, _HITS] += 1
         ints[:, _TSU] = 0
-        ints[:, _CLASS] = classes.take(det)
+        ints[:, _CLASS] = self._class_votes(trk, classes.take(det), scores.take(det), decay=True)
         ints[:, _DET] = det if orig_index is None else orig_index.take(det)
         state = ints[:, _STATE]
         state[state == _LOST] = _CONFIRMED
@@ -712,6 +757,25 @@ class Tracker:
         mixed = m * old + (1.0 - m) * f
         mixed /= np.maximum(np.linalg.norm(mixed, axis=1, keepdims=True), 1e-12)
         store[trk] = np.where(np.isnan(old[:, :1]), f, mixed)  # first feature: taken as is
+
+    def _class_votes(self, rows: np.ndarray, cls: np.ndarray, score: np.ndarray, decay: bool) -> np.ndarray:
+        """Add detections (``cls``, ``score``) to the class votes of tracks ``rows``; their classes.
+
+        A new track (``decay`` False) starts from its detection alone. Column ``c + 1``
+        holds class ``c`` (column 0: any negative, unknown, class).
+        """
+        m = self.config.class_memory
+        if m <= 0.0:
+            return cls
+        col = np.maximum(cls, -1) + 1
+        if col.max() >= self._votes.shape[1]:
+            grown = np.zeros((len(self._votes), int(col.max()) + 1))
+            grown[:, : self._votes.shape[1]] = self._votes
+            self._votes = grown
+        votes = self._votes[rows] * m if decay else np.zeros((len(rows), self._votes.shape[1]))
+        votes[np.arange(len(rows)), col] += np.maximum(score, 1e-6)  # a zero score still counts
+        self._votes[rows] = votes
+        return votes.argmax(axis=1) - 1
 
     def _misses(self, n: int) -> None:
         """Tracks among the first n rows not matched this frame: remove the expired, the others turn lost."""
@@ -744,7 +808,7 @@ class Tracker:
         self._score[rows] = scores.take(new)
         ints = self._ints[rows]
         ints[:] = self._newborn  # age 0, one hit, tentative, no id
-        ints[:, _CLASS] = classes.take(new)
+        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), classes.take(new), scores.take(new), decay=False)
         ints[:, _DET] = new if orig_index is None else orig_index.take(new)
         if feats is not None:
             f = feats[new]

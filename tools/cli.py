@@ -443,7 +443,7 @@ def train_detector(
     eval_every: Annotated[int, typer.Option(min=0, help="validate every k epochs (0: at the end)")] = 4,
     limit: Annotated[int | None, typer.Option(min=1, help="use only the first N training images")] = None,
     log_file: Annotated[Path | None, typer.Option("--log", help="write the training log (JSON) here")] = None,
-    init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model)")] = None,
+    init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model) or an exported .onnx model")] = None,
     crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""

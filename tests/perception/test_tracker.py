@@ -109,13 +109,51 @@ def test_ids_stable_through_five_frame_occlusion() -> None:
     assert ids == {0: {1}, 1: {2}}
 
 
-def test_per_class_cross_class_pairs_never_match() -> None:
-    tr = Tracker(TrackerConfig(min_hits=1))
+def test_strict_per_class_cross_class_pairs_never_match() -> None:
+    tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=None))
     tr.update(dets([box(300, 300)], cls=PED))
     out = tr.update(dets([box(300, 300)], cls=CAR))
     out = out[out.state == TrackState.CONFIRMED]
     assert out.track_id.tolist() == [2] and out.class_id.tolist() == [CAR]
     assert tr.num_tracks == 2  # the pedestrian track is lost, not taken over
+
+
+CYC = 1  # cyclist: the class a walking pedestrian is most often mistaken for
+
+
+def test_class_switch_cost_keeps_the_identity_through_a_class_flicker() -> None:
+    flicker = [PED] * 5 + [CYC] * 2 + [PED] * 5
+    ids: dict[float | None, set[int]] = {}
+    for cost in (None, 0.2):
+        tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=cost))
+        ids[cost] = set()
+        for t, c in enumerate(flicker):
+            out = tr.update(dets([box(100 + 5 * t, 200)], cls=c))
+            ids[cost] |= set(out.track_id[out.state == TrackState.CONFIRMED].tolist())
+    assert len(ids[None]) >= 2  # strict per-class: a new track at each flip
+    assert ids[0.2] == {1}
+
+
+def test_class_switch_cost_prefers_the_same_class() -> None:
+    tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2))
+    tr.update(dets([box(300, 300), box(330, 300)], cls=[PED, CYC]))
+    # both detections overlap both tracks; the cyclist one overlaps the pedestrian track more
+    out = tr.update(dets([box(318, 300), box(312, 300)], cls=[PED, CYC]))
+    by_det = dict(zip(out.det_index.tolist(), out.track_id.tolist(), strict=True))
+    assert by_det == {0: 1, 1: 2}
+
+
+def test_class_memory_votes_the_class_by_score() -> None:
+    tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, class_memory=0.9))
+    seq = [PED] * 10 + [CYC] * 3
+    classes = [int(tr.update(dets([box(100 + 5 * t, 200)], cls=c)).class_id[0]) for t, c in enumerate(seq)]
+    assert classes == [PED] * 13  # three cyclist frames do not outvote ten pedestrian ones
+    for t in range(13, 40):
+        out = tr.update(dets([box(100 + 5 * t, 200)], cls=CYC))
+    assert out.class_id.tolist() == [CYC] and out.track_id.tolist() == [1]  # a lasting change wins
+    plain = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, class_memory=0.0))
+    last = [int(plain.update(dets([box(100 + 5 * t, 200)], cls=c)).class_id[0]) for t, c in enumerate(seq)]
+    assert last == seq  # memory 0: the latest detection's class
 
 
 def test_pedestrian_and_car_crossing_keep_ids() -> None:
@@ -169,7 +207,7 @@ def test_low_score_detections_never_start_tracks() -> None:
 
 
 def test_without_second_stage_low_scores_lose_the_track() -> None:
-    tr = Tracker(TrackerConfig(low_score=0.5))  # low band empty
+    tr = Tracker(TrackerConfig(low_score=0.45))  # low band empty (low_score = high_score)
     run_linear(tr, 5)
     out = tr.update(dets([box(125, 200)], score=0.3))
     assert out.state.tolist() == [TrackState.LOST] and out.det_index.tolist() == [-1]

@@ -4,6 +4,7 @@ exports an ONNX model that ``OnnxDetector`` runs unchanged; AP and recall-at-pre
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,6 +16,8 @@ from tools.detector.data import STRIDE, encode  # noqa: E402
 from tools.detector.evaluate import evaluate_split, recall_at_precision  # noqa: E402
 from tools.detector.model import CenterDet, Decoded  # noqa: E402
 from tools.detector.train import TrainConfig, focal_loss, train  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
 
 
 class _Oracle(torch.nn.Module):
@@ -113,3 +116,34 @@ def test_a_real_training_run_exports_a_model_the_detector_runs(tmp_path):
     assert d.xyxy.shape[1] == 4
     net = CenterDet()
     assert sum(p.numel() for p in net.parameters()) < 2_000_000
+
+
+def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
+    # the shipped ONNX (BatchNorm folded) back into a CenterDet: same outputs when re-exported,
+    # and train-mode BatchNorm on calibration-like batches changes the function only slightly
+    import onnxruntime as ort
+
+    from perception.detectors.onnx_detector import ModelError
+    from tools.detector.from_onnx import load_exported
+    from tools.detector.train import export_onnx
+
+    shipped = ROOT / "models" / "lookahead-det.onnx"
+    rng = np.random.default_rng(0)
+    base = rng.uniform(0.2, 0.8, (1, 3, 1, 1)) + np.linspace(-0.2, 0.2, 640)[None, None, None, :]
+    x = np.clip(base + rng.normal(0, 0.05, (1, 3, 384, 640)), 0, 1).astype(np.float32)
+    calib = [torch.from_numpy(x[:, :, 64:320, 128:512].copy()) for _ in range(2)]
+    net = CenterDet()
+    load_exported(net, shipped, calib)
+    out = export_onnx(net, tmp_path / "again.onnx", {})
+    a = ort.InferenceSession(str(shipped)).run(None, {"images": x})[0]
+    b = ort.InferenceSession(str(out)).run(None, {"images": x})[0]
+    np.testing.assert_allclose(b[0, 4:], a[0, 4:], atol=1e-4)  # class scores
+    np.testing.assert_allclose(b[0, :4], a[0, :4], atol=0.05)  # boxes, px
+    net.train()
+    with torch.no_grad():
+        train_heat = net(calib[0])[0]
+        net.eval()
+        eval_heat = net(calib[0])[0]
+    assert float((train_heat - eval_heat).abs().mean()) < 0.01
+    with pytest.raises(ModelError, match="convolution"):
+        load_exported(CenterDet(widths=(16, 32, 64, 96, 128)), shipped, calib)

@@ -34,6 +34,8 @@ from perception.detections import CLASSES
 
 log = logging.getLogger(__name__)
 
+CALIBRATION_BATCHES = 16  # batches measured to unfold BatchNorm when starting from an exported .onnx
+
 
 @dataclass
 class TrainConfig:
@@ -47,7 +49,7 @@ class TrainConfig:
     threads: int = 2
     eval_every: int = 4  # epochs; 0 = only at the end
     limit: int | None = None  # use only the first N training images (smoke tests)
-    init: str | None = None  # start from this checkpoint (state dict, .pt) instead of random weights
+    init: str | None = None  # start from this checkpoint (state dict .pt, or an exported .onnx) instead of random
 
 
 def focal_loss(logits, heat, mask):
@@ -158,7 +160,14 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
     val_dir = Path(data_dir) / "val"
     sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed)
     net = CenterDet(len(CLASSES))
-    if cfg.init:
+    if cfg.init and Path(cfg.init).suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
+        from tools.detector.from_onnx import load_exported
+
+        calib_rng = np.random.default_rng([cfg.seed, 2])
+        calib = (torch.from_numpy(sampler.batch(calib_rng.choice(len(train_split.images), cfg.batch))[0])
+                 .float().div_(255.0) for _ in range(CALIBRATION_BATCHES))
+        load_exported(net, cfg.init, calib)
+    elif cfg.init:
         net.load_state_dict(torch.load(cfg.init, map_location="cpu", weights_only=True))
     net = net.to(memory_format=torch.channels_last)
     checkpoint = Path(out).with_suffix(".pt")  # weights after every epoch (to resume or fine-tune)
