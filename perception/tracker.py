@@ -110,10 +110,15 @@ class TrackerConfig:
             ``[low_score, high_score)`` enter stage 2.
         new_track_score: minimum score of an unmatched detection to start a track.
         match_iou: minimum IoU of a stage-1 (high-score) match.
-        min_match_size: association IoU is computed on boxes widened and
-            heightened about their centres to at least this many px, so that
-            one pixel of jitter does not break the track of a distant object a
-            few pixels wide (0 = the boxes as they are). Outputs are unchanged.
+        match_buffer: association IoU is computed on buffered boxes, each side
+            grown by this fraction of the box's width or height (the C-BIoU
+            tracker's buffer, Yang et al., WACV 2023), so that a box that moves or
+            grows faster than the constant-velocity prediction -- a near object
+            crossing, or closing in -- still overlaps its track (0 = unbuffered).
+        min_match_size: and those boxes are widened and heightened about their
+            centres to at least this many px, so that one pixel of jitter does not
+            break the track of a distant object a few pixels wide (0 = no floor).
+            Outputs are unchanged by either.
         second_match_iou: minimum IoU of a stage-2 (low-score) match.
         min_hits: matches needed for a tentative track to become confirmed.
         max_lost_s: a lost track is removed after this long without a match, s.
@@ -158,6 +163,7 @@ class TrackerConfig:
     low_score: float = 0.1
     new_track_score: float = 0.45
     match_iou: float = 0.3
+    match_buffer: float = 0.3
     min_match_size: float = 8.0
     second_match_iou: float = 0.3
     min_hits: int = 2
@@ -181,6 +187,7 @@ class TrackerConfig:
         checks = {
             "low_score <= high_score": self.low_score <= self.high_score,
             "0 <= match_iou <= 1": 0.0 <= self.match_iou <= 1.0,
+            "match_buffer >= 0": self.match_buffer >= 0.0,
             "min_match_size >= 0": self.min_match_size >= 0.0,
             "0 <= second_match_iou <= 1": 0.0 <= self.second_match_iou <= 1.0,
             "min_hits >= 1": self.min_hits >= 1,
@@ -429,10 +436,15 @@ def _iou(a: np.ndarray, b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
     return inter / np.maximum(union, _TINY)
 
 
-def _at_least(xyxy: np.ndarray, cxcywh: np.ndarray | None, size: float) -> tuple[np.ndarray, np.ndarray]:
-    """Boxes grown about their centres to at least ``size`` px wide and high: (xyxy, cxcywh)."""
+def _match_boxes(
+    xyxy: np.ndarray, cxcywh: np.ndarray | None, buffer: float, size: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes as association sees them: each side pushed out by ``buffer`` times the
+    width / height, then grown to at least ``size`` px, about the centre: (xyxy, cxcywh)."""
     c = _cxcywh(xyxy) if cxcywh is None else cxcywh
     grown = c.copy()
+    if buffer > 0:
+        grown[:, 2:] *= 1.0 + 2.0 * buffer
     np.maximum(grown[:, 2:], size, out=grown[:, 2:])
     half = grown[:, 2:] / 2.0
     return np.concatenate([grown[:, :2] - half, grown[:, :2] + half], axis=1), grown
@@ -635,9 +647,10 @@ class Tracker:
         unmatched_high = high
         if n:
             ints = self._ints[:n]
-            if cfg.min_match_size > 0:
-                pb, pm = _at_least(boxes, meas, cfg.min_match_size)
-                iou = _iou(_at_least(self._x[:n] @ _STATE_TO_XYXY, None, cfg.min_match_size)[0], pb, pm[:, 2] * pm[:, 3])
+            if cfg.min_match_size > 0 or cfg.match_buffer > 0:
+                grow = cfg.match_buffer, cfg.min_match_size
+                pb, pm = _match_boxes(boxes, meas, *grow)
+                iou = _iou(_match_boxes(self._x[:n] @ _STATE_TO_XYXY, None, *grow)[0], pb, pm[:, 2] * pm[:, 3])
             else:
                 iou = _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
             trk_class = ints[:, _CLASS]

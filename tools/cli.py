@@ -480,6 +480,9 @@ def eval_detector(
     preprocess: Annotated[str | None, typer.Option(
         help="preprocessing chain before the detector, YAML, e.g. '[{op: clahe, clip_limit: 3}, {op: gamma, gamma: 1.5}]'"
     )] = None,
+    min_box: Annotated[float, typer.Option(
+        "--min-box", min=0.0, help="grow boxes smaller than this (px) before IoU, as all scoring does; 0: plain IoU"
+    )] = 8.0,
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
     """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
@@ -496,7 +499,8 @@ def eval_detector(
         except (ValueError, yaml.YAMLError) as e:
             console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False)
             raise typer.Exit(2) from None
-    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain) for sp in splits}
+    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box)
+               for sp in splits}
     print(f"{'split':32s} {'AP50':>6s} {'pooled':>6s} {'R@P95':>6s} {'P':>6s} {'R':>6s}  per-class AP50")
     for sp, m in results.items():
         pc = " ".join(f"{k[:4]}={v['ap50']:.2f}" for k, v in m["per_class"].items())

@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from trackeval.metrics import CLEAR, HOTA, Identity
 
-from perception.geometry import iou_matrix
+from perception.geometry import grow_to_size, iou_matrix
 from perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections, write_mot
 from perception.tracker import Tracker, TrackerConfig
 
@@ -73,6 +73,7 @@ def build_sequence_data(
     tracks: MotRecords,
     num_frames: int | None = None,
     mot16_preprocess: bool | None = None,
+    min_box: float = 0.0,
 ) -> dict:
     """The data dict TrackEval metrics' ``eval_sequence`` expects, for one sequence.
 
@@ -81,6 +82,9 @@ def build_sequence_data(
         tracks: tracker rows.
         num_frames: sequence length; default the last frame in either input.
         mot16_preprocess: apply MOT16+ distractor handling; None = auto (``is_mot16_gt``).
+        min_box: boxes smaller than this (px) are grown about their centres to it
+            before IoU (``tools.scoring.matching.MIN_MATCH_SIZE_PX``); 0 = plain IoU,
+            the MOTChallenge definition.
     """
     if num_frames is None:
         num_frames = max(gt.num_frames, tracks.num_frames)
@@ -93,7 +97,8 @@ def build_sequence_data(
         g, k = gt_frames[f], trk_frames[f]
         _check_unique(g.track_id, "ground truth", f)
         _check_unique(k.track_id, "tracker output", f)
-        sim = iou_matrix(g.xyxy, k.xyxy)
+        sim = iou_matrix(grow_to_size(g.xyxy, min_box), grow_to_size(k.xyxy, min_box)) if min_box > 0 \
+            else iou_matrix(g.xyxy, k.xyxy)
         if mot16_preprocess:
             keep_trk = np.ones(len(k), dtype=bool)
             if len(g) and len(k):
@@ -131,6 +136,7 @@ def evaluate_mot(
     iou_threshold: float = 0.5,
     num_frames: int | None = None,
     mot16_preprocess: bool | None = None,
+    min_box: float = 0.0,
 ) -> dict:
     """CLEAR, Identity and HOTA metrics of one sequence, computed by TrackEval.
 
@@ -140,6 +146,7 @@ def evaluate_mot(
         iou_threshold: IoU for a true positive in CLEAR/Identity (TrackEval default 0.5).
         num_frames: sequence length; default the last frame in either input.
         mot16_preprocess: see module docstring; None = auto-detect.
+        min_box: see ``build_sequence_data`` (0, plain IoU, for MOTChallenge data).
 
     Returns:
         Plain-float/int dict: ``mota, motp`` (mean IoU of matches), ``moda, idf1, idp,
@@ -150,7 +157,7 @@ def evaluate_mot(
     Raises:
         ValueError: malformed rows (see ``read_mot``) or duplicate ids in a frame.
     """
-    data = build_sequence_data(_as_records(gt), _as_records(tracks), num_frames, mot16_preprocess)
+    data = build_sequence_data(_as_records(gt), _as_records(tracks), num_frames, mot16_preprocess, min_box)
     cfg = {"THRESHOLD": iou_threshold, "PRINT_CONFIG": False}
     clear = CLEAR(dict(cfg)).eval_sequence(data)
     ident = Identity(dict(cfg)).eval_sequence(data)
@@ -210,7 +217,8 @@ def evaluate_mot(
 #: detector's scores and for distant objects a few pixels wide, and MOT15 has neither.
 MOT_TRACKER_OVERRIDES = {"max_lost_s": 0.3, "output_lost": False, "std_weight_accel": 1.0,
                          "high_score": 0.5, "new_track_score": 0.5, "second_match_iou": 0.5,
-                         "min_match_size": 0.0, "class_switch_cost": None, "class_memory": 0.0}
+                         "match_buffer": 0.0, "min_match_size": 0.0, "class_switch_cost": None,
+                         "class_memory": 0.0}
 SCORE_PERCENTILE = 75.0
 
 

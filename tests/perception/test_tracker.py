@@ -156,6 +156,20 @@ def test_class_memory_votes_the_class_by_score() -> None:
     assert last == seq  # memory 0: the latest detection's class
 
 
+def test_match_buffer_follows_a_box_that_outruns_its_prediction() -> None:
+    # Standing still for five frames, then 28 px to the right at once: IoU with the
+    # prediction 12/68 (< match_iou 0.3), but 0.39 with sides buffered by 0.3 of the size.
+    ids = {}
+    for buffer in (0.0, 0.3):
+        tr = Tracker(TrackerConfig(min_hits=1, match_buffer=buffer))
+        for _ in range(5):
+            tr.update(dets([box(100, 200, 40, 40)]))
+        out = tr.update(dets([box(128, 200, 40, 40)]))
+        ids[buffer] = out.track_id[out.state == TrackState.CONFIRMED].tolist()
+    assert ids[0.0] == [2]  # a new track; the first coasts as lost
+    assert ids[0.3] == [1]
+
+
 def test_pedestrian_and_car_crossing_keep_ids() -> None:
     tr = Tracker()
     seen: dict[int, set[int]] = {PED: set(), CAR: set()}

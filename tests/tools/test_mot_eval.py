@@ -72,6 +72,17 @@ def test_iou_threshold_and_motp() -> None:
     assert m["mota"] == pytest.approx((1 - 1) / 2)
 
 
+def test_min_box_grows_boxes_a_few_pixels_wide_before_iou() -> None:
+    # 2 x 13 px boxes one pixel apart: plain IoU 1/3 (MOTChallenge, the default) misses;
+    # grown to 8 px wide they overlap 7/9. A 20 x 20 box is scored the same either way.
+    gt = rows((1, 1, 100, 100, 2, 13), (1, 2, 300, 100, 20, 20))
+    trk = rows((1, 1, 101, 100, 2, 13), (1, 2, 305, 100, 20, 20))
+    plain, grown = evaluate_mot(gt, trk), evaluate_mot(gt, trk, min_box=8.0)
+    assert (plain["tp"], plain["fp"], plain["fn"]) == (1, 1, 1)
+    assert (grown["tp"], grown["fp"], grown["fn"]) == (2, 0, 0)
+    assert grown["motp"] == pytest.approx((7 / 9 + 15 / 25) / 2)
+
+
 def test_mot16_gt_distractors_and_zero_marked() -> None:
     # frame, id, x, y, w, h, consider, class, visibility
     gt = rows(

@@ -4,8 +4,10 @@ Evaluated ground truth: objects of the eight classes at range ``RANGE_M`` (5-50 
 with visible fraction >= ``MIN_VISIBLE`` (0.5) -- the issue's acceptance set. Every
 other labelled object is *don't care*: a detection matching it (same class, IoU >=
 0.5) is neither a true nor a false positive. Matching per image and class is
-greedy by score at IoU >= 0.5 (``tools.scoring.matching``); AP is the all-point
-interpolated AP of ``tools.scoring.detection.average_precision``.
+greedy by score at IoU >= 0.5 (``tools.scoring.matching``; boxes smaller than
+``min_size`` px, by default ``MIN_MATCH_SIZE_PX`` = 8, are grown to it first, 0 gives
+plain IoU); AP is the all-point interpolated AP of
+``tools.scoring.detection.average_precision``.
 
 Reported (``evaluate_split``):
 
@@ -31,7 +33,7 @@ import numpy as np
 from perception.detections import CLASSES
 from tools.detector.data import Split, load_split
 from tools.scoring.detection import average_precision
-from tools.scoring.matching import class_iou, greedy_match
+from tools.scoring.matching import IOU_THRESHOLD, MIN_MATCH_SIZE_PX, class_iou, greedy_match
 
 log = logging.getLogger(__name__)
 
@@ -45,15 +47,15 @@ TP, FP, IGNORED = 1, 0, -1
 
 def match_image(
     xyxy: np.ndarray, score: np.ndarray, cls: np.ndarray, gt: np.ndarray, gt_cls: np.ndarray,
-    evaluated: np.ndarray, agnostic: bool = False,
+    evaluated: np.ndarray, agnostic: bool = False, min_size: float = MIN_MATCH_SIZE_PX,
 ) -> np.ndarray:
     """Status (M,) of each detection: TP, FP or IGNORED (module docstring)."""
     dc, gc = (None, None) if agnostic else (cls, gt_cls)
     order = np.argsort(-score, kind="stable")
-    iou = class_iou(xyxy, dc, gt[evaluated], None if gc is None else gc[evaluated])
+    iou = class_iou(xyxy, dc, gt[evaluated], None if gc is None else gc[evaluated], min_size)
     tp = greedy_match(iou, order) >= 0
-    iou_dc = class_iou(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated])
-    ignored = ~tp & np.any(iou_dc >= 0.5, axis=1)
+    iou_dc = class_iou(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated], min_size)
+    ignored = ~tp & np.any(iou_dc >= IOU_THRESHOLD, axis=1)
     return np.where(tp, TP, np.where(ignored, IGNORED, FP))
 
 
@@ -102,8 +104,10 @@ def _summary(status: np.ndarray, score: np.ndarray, cls: np.ndarray, gt_cls: np.
 def evaluate_split(
     split: Split, detect: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
     conf: float = 0.25, range_m: tuple[float, float] = RANGE_M, min_visible: float = MIN_VISIBLE,
+    min_size: float = MIN_MATCH_SIZE_PX,
 ) -> dict:
-    """Accuracy of ``detect`` (RGB image -> xyxy, score, class id in image px) on ``split``."""
+    """Accuracy of ``detect`` (RGB image -> xyxy, score, class id in image px) on ``split``;
+    ``min_size``: boxes grown to at least this many px for IoU (0: plain IoU)."""
     status = {False: [], True: []}
     scores, classes, gt_classes = [], [], []
     for i in range(len(split.images)):
@@ -114,7 +118,7 @@ def evaluate_split(
         rng, vis = split.ranges[i], split.visible[i]
         evaluated = (rng >= range_m[0]) & (rng <= range_m[1]) & (vis >= min_visible)
         for agn in (False, True):
-            status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn))
+            status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn, min_size))
         scores.append(score)
         classes.append(cls)
         gt_classes.append(split.classes[i][evaluated])
@@ -125,6 +129,7 @@ def evaluate_split(
     result["agnostic"] = {k: agn[k] for k in ("ap50", "recall_at_p95", "precision", "recall")}
     result["images"] = len(split.images)
     result["conf"] = conf
+    result["min_box_px"] = min_size
     return result
 
 
@@ -142,5 +147,8 @@ def onnx_detect(model: str | Path, preprocess=None):
     return detect
 
 
-def evaluate_model(model: str | Path, split_dir: str | Path, conf: float = 0.25, preprocess=None) -> dict:
-    return evaluate_split(load_split(split_dir), onnx_detect(model, preprocess), conf)
+def evaluate_model(
+    model: str | Path, split_dir: str | Path, conf: float = 0.25, preprocess=None,
+    min_size: float = MIN_MATCH_SIZE_PX,
+) -> dict:
+    return evaluate_split(load_split(split_dir), onnx_detect(model, preprocess), conf, min_size=min_size)

@@ -12,7 +12,8 @@ Which ground truth counts (per frame, on the GT *visible* box):
 
 Matching: per frame, detections in descending score order each take the unmatched
 evaluated GT box of the same class with the highest IoU >= ``IOU_THRESHOLD`` (0.5)
-(COCO-style greedy). Unmatched, non-ignored detections are false positives;
+(COCO-style greedy); boxes under 8 px wide or high are grown to 8 px for the IoU
+(``matching.MIN_MATCH_SIZE_PX``). Unmatched, non-ignored detections are false positives;
 duplicates of a matched GT are false positives.
 
 Precision / recall are at the detector's operating point (every detection in

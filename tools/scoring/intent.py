@@ -2,9 +2,9 @@
 
 Definitions (documented constants):
 
-* Matching: per frame, reported tracks (confirmed or briefly coasting) to ground-truth visible boxes by
-  Hungarian IoU >= 0.5, class-agnostic (class errors are the detection
-  section's business). Unmatched objects and tracks are left to the tracking
+* Matching: per frame, reported tracks (confirmed or briefly coasting) to ground-truth
+  visible boxes by Hungarian IoU >= 0.5 (``matching.class_iou``: boxes under 8 px
+  grown), class-agnostic (class errors are the detection section's business). Unmatched objects and tracks are left to the tracking
   metrics; predictions still ``initializing`` are don't-care (``n_initializing`` counts
   those matched pairs, beside ``n``, the scored ones).
 * Intent label time tolerance ``LABEL_TOLERANCE_S`` = 0.3 s: a prediction
@@ -36,14 +36,13 @@ import numpy as np
 
 from intent.labels import LABEL_NAMES, Label, Risk
 from tools.scoring.io import RunDirError
-from tools.scoring.matching import hungarian_match
+from tools.scoring.matching import IOU_THRESHOLD, class_iou, hungarian_match
 
 LABEL_TOLERANCE_S = 0.3
 EPISODE_GAP_FRAMES = 2
 ALERT_LEAD_WINDOW_S = 1.0
 FA_BEFORE_S = 0.5
 FA_AFTER_S = 1.0
-IOU_THRESHOLD = 0.5
 SCORED_LABELS = (Label.STABLE, Label.APPROACHING, Label.RECEDING, Label.DANGER)
 _RISK = {r.name: int(r) for r in Risk}
 
@@ -63,12 +62,6 @@ class IntentRun:
     collisions: list[dict] = field(default_factory=list)
     expect: list[dict] = field(default_factory=list)
     aeb_frames: int = 0
-
-
-def _iou(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    from perception.geometry import iou_matrix
-
-    return iou_matrix(np.nan_to_num(a, nan=0.0), np.nan_to_num(b, nan=0.0))
 
 
 def load_intent_run(run_dir: Path) -> IntentRun:
@@ -116,7 +109,7 @@ def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
         labels = np.asarray(asm["label"], dtype=np.int64)[state]
         ok = np.all(np.isfinite(vis), axis=1)
         if len(tids) and ok.any():
-            iou = _iou(xyxy, vis[ok])
+            iou = class_iou(xyxy, None, vis[ok], None)
             t_idx, g_idx = hungarian_match(iou, IOU_THRESHOLD)
             gids = ids[ok]
             for t, g in zip(t_idx.tolist(), g_idx.tolist(), strict=True):

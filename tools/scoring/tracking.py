@@ -17,7 +17,8 @@ by shifting each box ``class_id * CLASS_SHIFT_PX`` (1e5 px) along x, so boxes of
 different classes never overlap; IoU and MOTP are shift-invariant.
 
 Metrics are TrackEval's, with IoU threshold 0.5 for CLEAR/Identity and HOTA
-averaged over thresholds 0.05..0.95. ``mota``, ``idf1`` and ``hota`` are null when
+averaged over thresholds 0.05..0.95; every IoU here grows boxes under 8 px to that
+size first (``matching.MIN_MATCH_SIZE_PX``). ``mota``, ``idf1`` and ``hota`` are null when
 there is no evaluated GT (``n`` = 0), ``motp`` when nothing matched. Without
 tracks in the run every metric is null and ``n`` = 0.
 """
@@ -29,7 +30,7 @@ import numpy as np
 from tools.mot_eval import evaluate_mot
 from tools.scoring.detection import gt_selection
 from tools.scoring.io import GTFrame, RunData, TrackFrame
-from tools.scoring.matching import class_iou, hungarian_match
+from tools.scoring.matching import MIN_MATCH_SIZE_PX, class_iou, hungarian_match
 
 CLASS_SHIFT_PX = 1e5
 
@@ -82,7 +83,7 @@ def evaluate_tracking(run: RunData) -> dict:
         dropped += d
     m = evaluate_mot(
         np.concatenate(gt_parts), np.concatenate(trk_parts),
-        num_frames=len(run), mot16_preprocess=False,
+        num_frames=len(run), mot16_preprocess=False, min_box=MIN_MATCH_SIZE_PX,
     )
     out: dict = {k: m[k] for k in _REPORTED}
     if m["num_gt_dets"] == 0:
