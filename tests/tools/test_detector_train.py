@@ -137,7 +137,11 @@ def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
     out = export_onnx(net, tmp_path / "again.onnx", {})
     a = ort.InferenceSession(str(shipped)).run(None, {"images": x})[0]
     b = ort.InferenceSession(str(out)).run(None, {"images": x})[0]
-    np.testing.assert_allclose(b[0, 4:], a[0, 4:], atol=1e-4)  # class scores
+    # class scores: equal but where the graph's 3 x 3 peak test flips between two near-equal
+    # neighbouring cells (one side then reads 0); such flips are rare
+    off = np.abs(b[0, 4:] - a[0, 4:]) > 1e-4
+    assert off.mean() < 1e-4
+    assert np.all((a[0, 4:][off] == 0) | (b[0, 4:][off] == 0))
     np.testing.assert_allclose(b[0, :4], a[0, :4], atol=0.05)  # boxes, px
     net.train()
     with torch.no_grad():
