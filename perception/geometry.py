@@ -41,12 +41,13 @@ def box_area(boxes: np.ndarray) -> np.ndarray:
     return np.clip(b[:, 2] - b[:, 0], 0, None) * np.clip(b[:, 3] - b[:, 1], 0, None)
 
 
-def grow_to_size(boxes: np.ndarray, min_size: float) -> np.ndarray:
-    """xyxy boxes (N, 4) grown about their centres to at least ``min_size`` px wide and
-    high; sides already that long are unchanged."""
+def grow_boxes(boxes: np.ndarray, min_size: float, buffer: float = 0.0) -> np.ndarray:
+    """xyxy boxes (N, 4) grown about their centres: each side pushed out by ``buffer``
+    times the box's width / height, then to at least ``min_size`` px wide and high
+    (with ``buffer`` 0, sides already that long are unchanged)."""
     b = np.asarray(boxes, dtype=np.float64).reshape(-1, 4)
     centre = (b[:, :2] + b[:, 2:]) / 2.0
-    half = np.maximum(b[:, 2:] - b[:, :2], min_size) / 2.0
+    half = np.maximum((b[:, 2:] - b[:, :2]) * (1.0 + 2.0 * buffer), min_size) / 2.0
     return np.concatenate([centre - half, centre + half], axis=1)
 
 

@@ -85,6 +85,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from perception.detections import Detections
+from perception.geometry import box_area, grow_boxes
 
 log = logging.getLogger(__name__)
 
@@ -436,20 +437,6 @@ def _iou(a: np.ndarray, b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
     return inter / np.maximum(union, _TINY)
 
 
-def _match_boxes(
-    xyxy: np.ndarray, cxcywh: np.ndarray | None, buffer: float, size: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Boxes as association sees them: each side pushed out by ``buffer`` times the
-    width / height, then grown to at least ``size`` px, about the centre: (xyxy, cxcywh)."""
-    c = _cxcywh(xyxy) if cxcywh is None else cxcywh
-    grown = c.copy()
-    if buffer > 0:
-        grown[:, 2:] *= 1.0 + 2.0 * buffer
-    np.maximum(grown[:, 2:], size, out=grown[:, 2:])
-    half = grown[:, 2:] / 2.0
-    return np.concatenate([grown[:, :2] - half, grown[:, :2] + half], axis=1), grown
-
-
 # ---------------------------------------------------------------- track table
 # Live tracks are rows [0, n) of preallocated arrays, in birth order (the order
 # association sees them in, as a list would); the integer fields are the
@@ -648,9 +635,9 @@ class Tracker:
         if n:
             ints = self._ints[:n]
             if cfg.min_match_size > 0 or cfg.match_buffer > 0:
-                grow = cfg.match_buffer, cfg.min_match_size
-                pb, pm = _match_boxes(boxes, meas, *grow)
-                iou = _iou(_match_boxes(self._x[:n] @ _STATE_TO_XYXY, None, *grow)[0], pb, pm[:, 2] * pm[:, 3])
+                grow = cfg.min_match_size, cfg.match_buffer
+                pb = grow_boxes(boxes, *grow)
+                iou = _iou(grow_boxes(self._x[:n] @ _STATE_TO_XYXY, *grow), pb, box_area(pb))
             else:
                 iou = _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
             trk_class = ints[:, _CLASS]

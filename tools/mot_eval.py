@@ -24,7 +24,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from trackeval.metrics import CLEAR, HOTA, Identity
 
-from perception.geometry import grow_to_size, iou_matrix
+from perception.geometry import grow_boxes, iou_matrix
 from perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections, write_mot
 from perception.tracker import Tracker, TrackerConfig
 
@@ -97,7 +97,7 @@ def build_sequence_data(
         g, k = gt_frames[f], trk_frames[f]
         _check_unique(g.track_id, "ground truth", f)
         _check_unique(k.track_id, "tracker output", f)
-        sim = iou_matrix(grow_to_size(g.xyxy, min_box), grow_to_size(k.xyxy, min_box)) if min_box > 0 \
+        sim = iou_matrix(grow_boxes(g.xyxy, min_box), grow_boxes(k.xyxy, min_box)) if min_box > 0 \
             else iou_matrix(g.xyxy, k.xyxy)
         if mot16_preprocess:
             keep_trk = np.ones(len(k), dtype=bool)

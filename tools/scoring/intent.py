@@ -4,9 +4,10 @@ Definitions (documented constants):
 
 * Matching: per frame, reported tracks (confirmed or briefly coasting) to ground-truth
   visible boxes by Hungarian IoU >= 0.5 (``matching.class_iou``: boxes under 8 px
-  grown), class-agnostic (class errors are the detection section's business). Unmatched objects and tracks are left to the tracking
-  metrics; predictions still ``initializing`` are don't-care (``n_initializing`` counts
-  those matched pairs, beside ``n``, the scored ones).
+  grown), class-agnostic (class errors are the detection section's business).
+  Unmatched objects and tracks are left to the tracking metrics; predictions still
+  ``initializing`` are don't-care (``n_initializing`` counts those matched pairs,
+  beside ``n``, the scored ones).
 * Intent label time tolerance ``LABEL_TOLERANCE_S`` = 0.3 s: a prediction
   counts as correct when the object's ground-truth label equals it at any time
   within ±0.3 s (labels change at thresholds; a 3-frame slack at 10 Hz).

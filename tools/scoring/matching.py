@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from perception.geometry import grow_to_size, iou_matrix
+from perception.geometry import grow_boxes, iou_matrix
 
 IOU_THRESHOLD = 0.5
 MIN_MATCH_SIZE_PX = 8.0
@@ -35,7 +35,7 @@ def class_iou(
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
     a_safe, b_safe = np.nan_to_num(a), np.nan_to_num(b)
     if min_size > 0:
-        a_safe, b_safe = grow_to_size(a_safe, min_size), grow_to_size(b_safe, min_size)
+        a_safe, b_safe = grow_boxes(a_safe, min_size), grow_boxes(b_safe, min_size)
     iou = iou_matrix(a_safe, b_safe)
     valid = np.all(np.isfinite(a), axis=1)[:, None] & np.all(np.isfinite(b), axis=1)[None, :]
     if a_cls is not None and b_cls is not None:
