@@ -4,6 +4,9 @@ Pipeline per frame (``Tracker.update``):
 
 1. Drop invalid detections (non-finite numbers, width/height <= 0, coordinates
    beyond ``max_abs_coord``) and count them in ``Tracker.dropped_detections``.
+   Fold duplicates (``duplicate_iou``: one object detected as two classes) into
+   the higher-scoring detection as class evidence; count them in
+   ``Tracker.merged_duplicates``.
 2. Predict every track one frame ahead with its Kalman filter.
 3. Stage 1: high-score detections (``score >= high_score``) against *all*
    tracks (tentative, confirmed, lost); cost ``1 - IoU`` gated at ``match_iou``,
@@ -135,6 +138,13 @@ class TrackerConfig:
             in [0, 1): the track's class is the argmax of its detections' scores
             summed per class, each earlier match weighted down by this factor;
             0 = the class of its latest detection.
+        duplicate_iou: a detection (of any class) overlapping a higher-scoring one by
+            more than this IoU (boxes floored at ``min_match_size``, unbuffered) is
+            the same object seen as another class -- the per-class NMS of a
+            detector keeps both when it cannot decide between pedestrian and
+            cyclist: it takes no part in association or track births, and its score
+            counts for its class in the class votes of whatever track the higher one
+            joins. None = every detection is an object of its own.
         reid_weight: weight in [0, 1] of the appearance cosine distance in the
             stage-1 cost; 0 disables appearance even when features are passed.
         reid_max_distance: cosine distance under which a lost track may be
@@ -173,6 +183,7 @@ class TrackerConfig:
     per_class: bool = True
     class_switch_cost: float | None = 0.2
     class_memory: float = 0.9
+    duplicate_iou: float | None = 0.55
     reid_weight: float = 0.0
     reid_max_distance: float = 0.3
     feature_momentum: float = 0.9
@@ -199,6 +210,7 @@ class TrackerConfig:
             "0 <= feature_momentum < 1": 0.0 <= self.feature_momentum < 1.0,
             "0 <= class_memory < 1": 0.0 <= self.class_memory < 1.0,
             "class_switch_cost >= 0 or None": self.class_switch_cost is None or self.class_switch_cost >= 0.0,
+            "0 <= duplicate_iou <= 1 or None": self.duplicate_iou is None or 0.0 <= self.duplicate_iou <= 1.0,
             "max_abs_coord > 0": self.max_abs_coord > 0.0,
             "std weights > 0": self.std_weight_position > 0
             and self.std_weight_velocity > 0
@@ -492,6 +504,7 @@ class Tracker:
         self._next_id = 1
         self.frame_count = 0
         self.dropped_detections = 0
+        self.merged_duplicates = 0
 
     @property
     def num_tracks(self) -> int:
@@ -617,6 +630,15 @@ class Tracker:
                 boxes, scores, classes = boxes[valid], scores[valid], classes[valid]
                 if feats is not None:
                     feats = feats[valid]
+        evidence = self._class_evidence(classes, scores)
+        if cfg.duplicate_iou is not None and len(boxes) > 1:
+            lead = self._merge_duplicates(boxes, scores, classes, evidence)
+            if lead is not None:
+                self.merged_duplicates += len(lead) - int(np.count_nonzero(lead))
+                orig_index = np.flatnonzero(lead) if orig_index is None else orig_index[lead]
+                boxes, scores, classes, evidence = boxes[lead], scores[lead], classes[lead], evidence[lead]
+                if feats is not None:
+                    feats = feats[lead]
 
         n = self._predict()
         m = len(boxes)
@@ -682,14 +704,14 @@ class Tracker:
                             jumped = np.concatenate([jumped, np.zeros(len(rows), dtype=bool)])
 
         if len(trk):
-            self._apply_matches(trk, det, jumped, meas, scores, classes, orig_index, feats)
+            self._apply_matches(trk, det, jumped, meas, scores, classes, evidence, orig_index, feats)
         if n:
             self._misses(n)
         new = unmatched_high
         if cfg.new_track_score > cfg.high_score:
             new = new[scores.take(new) >= cfg.new_track_score]
         if len(new):
-            self._birth(new, meas, scores, classes, orig_index, feats)
+            self._birth(new, meas, scores, classes, evidence, orig_index, feats)
         return self._output()
 
     def _predict(self) -> int:
@@ -714,6 +736,7 @@ class Tracker:
         meas: np.ndarray,
         scores: np.ndarray,
         classes: np.ndarray,
+        evidence: np.ndarray,
         orig_index: np.ndarray | None,
         feats: np.ndarray | None,
     ) -> None:
@@ -731,7 +754,7 @@ class Tracker:
         ints = self._ints.take(trk, axis=0)
         ints[:, _HITS] += 1
         ints[:, _TSU] = 0
-        ints[:, _CLASS] = self._class_votes(trk, classes.take(det), scores.take(det), decay=True)
+        ints[:, _CLASS] = self._class_votes(trk, classes.take(det), evidence.take(det, axis=0), decay=True)
         ints[:, _DET] = det if orig_index is None else orig_index.take(det)
         state = ints[:, _STATE]
         state[state == _LOST] = _CONFIRMED
@@ -758,22 +781,61 @@ class Tracker:
         mixed /= np.maximum(np.linalg.norm(mixed, axis=1, keepdims=True), 1e-12)
         store[trk] = np.where(np.isnan(old[:, :1]), f, mixed)  # first feature: taken as is
 
-    def _class_votes(self, rows: np.ndarray, cls: np.ndarray, score: np.ndarray, decay: bool) -> np.ndarray:
-        """Add detections (``cls``, ``score``) to the class votes of tracks ``rows``; their classes.
+    def _class_evidence(self, classes: np.ndarray, scores: np.ndarray) -> np.ndarray:
+        """(M, W) class evidence of detections: each one's score (at least 1e-6, so a zero
+        score still counts) in column ``class_id + 1`` (column 0: any negative, unknown,
+        class); W covers the track votes' columns and these classes (the votes grow to W)."""
+        col = np.maximum(classes, -1) + 1
+        width = max(self._votes.shape[1], int(col.max(initial=0)) + 1)
+        if width > self._votes.shape[1]:
+            grown = np.zeros((len(self._votes), width))
+            grown[:, : self._votes.shape[1]] = self._votes
+            self._votes = grown
+        evidence = np.zeros((len(classes), width))
+        evidence[np.arange(len(classes)), col] = np.maximum(scores, 1e-6)
+        return evidence
 
-        A new track (``decay`` False) starts from its detection alone. Column ``c + 1``
-        holds class ``c`` (column 0: any negative, unknown, class).
+    def _merge_duplicates(
+        self, boxes: np.ndarray, scores: np.ndarray, classes: np.ndarray, evidence: np.ndarray
+    ) -> np.ndarray | None:
+        """Fold duplicate detections (``duplicate_iou``) into their leaders' ``evidence`` (in place).
+
+        A detection at or above ``low_score`` leads unless a higher-scoring one (ties:
+        the earlier row) overlaps it by more than ``duplicate_iou``; a non-leader
+        overlapping a leader so joins the highest-scoring such leader, and one that
+        overlaps only non-leaders leads after all (greedy NMS to depth two). Returns the
+        (M,) mask of the detections to keep, or None when every one is kept.
+        """
+        cfg = self.config
+        active = scores >= cfg.low_score
+        if np.count_nonzero(active) < 2:
+            return None
+        g = grow_boxes(boxes, cfg.min_match_size) if cfg.min_match_size > 0 else boxes
+        iou = _iou(g, g, box_area(g))
+        m = len(boxes)
+        rows = np.arange(m)
+        higher = (scores[:, None] > scores) | ((scores[:, None] == scores) & (rows[:, None] < rows))
+        over = (iou > cfg.duplicate_iou) & higher & active[:, None] & active  # over[i, j]: i suppresses j
+        leader = ~over.any(axis=0)
+        joins = over & leader[:, None]
+        follower = joins.any(axis=0)
+        if not np.count_nonzero(follower):
+            return None
+        f = np.flatnonzero(follower)
+        to = np.where(joins[:, f], scores[:, None], -np.inf).argmax(axis=0)
+        np.add.at(evidence, to, evidence[f])
+        return ~follower
+
+    def _class_votes(self, rows: np.ndarray, cls: np.ndarray, evidence: np.ndarray, decay: bool) -> np.ndarray:
+        """Add detections' class ``evidence`` (``_class_evidence``) to the votes of tracks ``rows``;
+        their classes (``cls``, the detections' own, when ``class_memory`` is 0).
+
+        A new track (``decay`` False) starts from its detection alone.
         """
         m = self.config.class_memory
         if m <= 0.0:
             return cls
-        col = np.maximum(cls, -1) + 1
-        if col.max() >= self._votes.shape[1]:
-            grown = np.zeros((len(self._votes), int(col.max()) + 1))
-            grown[:, : self._votes.shape[1]] = self._votes
-            self._votes = grown
-        votes = self._votes[rows] * m if decay else np.zeros((len(rows), self._votes.shape[1]))
-        votes[np.arange(len(rows)), col] += np.maximum(score, 1e-6)  # a zero score still counts
+        votes = self._votes[rows] * m + evidence if decay else evidence.copy()
         self._votes[rows] = votes
         return votes.argmax(axis=1) - 1
 
@@ -796,6 +858,7 @@ class Tracker:
         meas: np.ndarray,
         scores: np.ndarray,
         classes: np.ndarray,
+        evidence: np.ndarray,
         orig_index: np.ndarray | None,
         feats: np.ndarray | None,
     ) -> None:
@@ -808,7 +871,8 @@ class Tracker:
         self._score[rows] = scores.take(new)
         ints = self._ints[rows]
         ints[:] = self._newborn  # age 0, one hit, tentative, no id
-        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), classes.take(new), scores.take(new), decay=False)
+        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), classes.take(new), evidence.take(new, axis=0),
+                                            decay=False)
         ints[:, _DET] = new if orig_index is None else orig_index.take(new)
         if feats is not None:
             f = feats[new]

@@ -135,7 +135,8 @@ def test_class_switch_cost_keeps_the_identity_through_a_class_flicker() -> None:
 
 
 def test_class_switch_cost_prefers_the_same_class() -> None:
-    tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2))
+    # two objects 6 px apart (IoU 0.74): as duplicates they would merge, so that is off here
+    tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, duplicate_iou=None))
     tr.update(dets([box(300, 300), box(330, 300)], cls=[PED, CYC]))
     # both detections overlap both tracks; the cyclist one overlaps the pedestrian track more
     out = tr.update(dets([box(318, 300), box(312, 300)], cls=[PED, CYC]))
@@ -154,6 +155,37 @@ def test_class_memory_votes_the_class_by_score() -> None:
     plain = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, class_memory=0.0))
     last = [int(plain.update(dets([box(100 + 5 * t, 200)], cls=c)).class_id[0]) for t, c in enumerate(seq)]
     assert last == seq  # memory 0: the latest detection's class
+
+
+def test_duplicate_of_another_class_joins_the_track_and_votes_for_its_class() -> None:
+    # A cyclist track; then the detector sees the same object twice every frame, as
+    # pedestrian 0.4 and cyclist 0.3 (per-class NMS keeps both; both below high_score).
+    seen = {}
+    for dup in (None, 0.55):
+        tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, class_memory=0.9, duplicate_iou=dup))
+        ids, classes = set(), []
+        for t in range(10):
+            out = tr.update(dets([box(100 + 5 * t, 200)], score=0.6, cls=CYC))
+        for t in range(10, 30):
+            b = box(100 + 5 * t, 200)
+            out = tr.update(dets([b, [b[0] + 2, b[1] + 1, b[2] + 2, b[3] + 1]], score=[0.3, 0.4], cls=[CYC, PED]))
+            live = out[out.state == TrackState.CONFIRMED]
+            ids |= set(live.track_id.tolist())
+            classes.append(int(live.class_id[0]))
+        seen[dup] = (ids, classes, tr.merged_duplicates)
+    ids, classes, merged = seen[None]
+    # the class gate picks the cyclist box of the two every frame: the track never changes class
+    assert ids == {1} and set(classes) == {CYC} and merged == 0
+    ids, classes, merged = seen[0.55]
+    assert ids == {1} and merged == 20
+    assert classes[0] == CYC and classes[-1] == PED  # both boxes vote: the pedestrian evidence wins
+
+
+def test_duplicates_do_not_merge_separate_objects() -> None:
+    tr = Tracker(TrackerConfig(min_hits=1))
+    for _ in range(5):  # side by side, IoU 0.33; and a low-score box on one of them that the tracker ignores
+        out = tr.update(dets([box(100, 200), box(120, 200), box(101, 200)], score=[0.9, 0.8, 0.05], cls=[PED, CYC, CAR]))
+    assert sorted(out.class_id.tolist()) == [PED, CYC] and tr.merged_duplicates == 0
 
 
 def test_match_buffer_follows_a_box_that_outruns_its_prediction() -> None:
