@@ -138,6 +138,9 @@ class TrackerConfig:
             in [0, 1): the track's class is the argmax of its detections' scores
             summed per class, each earlier match weighted down by this factor;
             0 = the class of its latest detection.
+        class_hysteresis: a track changes its class only when another class's votes
+            exceed its current class's by this factor (>= 1; 1 = the plain argmax),
+            so near-even evidence does not flip the class frame to frame.
         duplicate_iou: a detection (of any class) overlapping a higher-scoring one by
             more than this IoU (boxes floored at ``min_match_size``, unbuffered) is
             the same object seen as another class -- the per-class NMS of a
@@ -183,6 +186,7 @@ class TrackerConfig:
     per_class: bool = True
     class_switch_cost: float | None = 0.2
     class_memory: float = 0.9
+    class_hysteresis: float = 1.25
     duplicate_iou: float | None = 0.55
     reid_weight: float = 0.0
     reid_max_distance: float = 0.3
@@ -209,6 +213,7 @@ class TrackerConfig:
             "0 <= reid_weight <= 1": 0.0 <= self.reid_weight <= 1.0,
             "0 <= feature_momentum < 1": 0.0 <= self.feature_momentum < 1.0,
             "0 <= class_memory < 1": 0.0 <= self.class_memory < 1.0,
+            "class_hysteresis >= 1": self.class_hysteresis >= 1.0,
             "class_switch_cost >= 0 or None": self.class_switch_cost is None or self.class_switch_cost >= 0.0,
             "0 <= duplicate_iou <= 1 or None": self.duplicate_iou is None or 0.0 <= self.duplicate_iou <= 1.0,
             "max_abs_coord > 0": self.max_abs_coord > 0.0,
@@ -754,7 +759,8 @@ class Tracker:
         ints = self._ints.take(trk, axis=0)
         ints[:, _HITS] += 1
         ints[:, _TSU] = 0
-        ints[:, _CLASS] = self._class_votes(trk, classes.take(det), evidence.take(det, axis=0), decay=True)
+        ints[:, _CLASS] = self._class_votes(trk, classes.take(det), evidence.take(det, axis=0), decay=True,
+                                            current=ints[:, _CLASS])
         ints[:, _DET] = det if orig_index is None else orig_index.take(det)
         state = ints[:, _STATE]
         state[state == _LOST] = _CONFIRMED
@@ -826,18 +832,26 @@ class Tracker:
         np.add.at(evidence, to, evidence[f])
         return ~follower
 
-    def _class_votes(self, rows: np.ndarray, cls: np.ndarray, evidence: np.ndarray, decay: bool) -> np.ndarray:
+    def _class_votes(
+        self, rows: np.ndarray, cls: np.ndarray, evidence: np.ndarray, decay: bool, current: np.ndarray | None = None
+    ) -> np.ndarray:
         """Add detections' class ``evidence`` (``_class_evidence``) to the votes of tracks ``rows``;
         their classes (``cls``, the detections' own, when ``class_memory`` is 0).
 
-        A new track (``decay`` False) starts from its detection alone.
+        A new track (``decay`` False) starts from its detection alone; a matched one keeps
+        its ``current`` class unless another's votes beat it by ``class_hysteresis``.
         """
         m = self.config.class_memory
         if m <= 0.0:
             return cls
         votes = self._votes[rows] * m + evidence if decay else evidence.copy()
         self._votes[rows] = votes
-        return votes.argmax(axis=1) - 1
+        best = votes.argmax(axis=1)
+        if current is None or self.config.class_hysteresis <= 1.0:
+            return best - 1
+        idx = np.arange(len(rows))
+        keep = votes[idx, best] <= self.config.class_hysteresis * votes[idx, current + 1]
+        return np.where(keep, current, best - 1)
 
     def _misses(self, n: int) -> None:
         """Tracks among the first n rows not matched this frame: remove the expired, the others turn lost."""

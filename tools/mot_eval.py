@@ -218,7 +218,8 @@ def evaluate_mot(
 MOT_TRACKER_OVERRIDES = {"max_lost_s": 0.3, "output_lost": False, "std_weight_accel": 1.0,
                          "high_score": 0.5, "new_track_score": 0.5, "second_match_iou": 0.5,
                          "match_buffer": 0.0, "min_match_size": 0.0, "class_switch_cost": None,
-                         "class_memory": 0.0, "duplicate_iou": None}
+                         "class_memory": 0.0, "duplicate_iou": None,
+                         "class_hysteresis": 1.0}
 SCORE_PERCENTILE = 75.0
 
 

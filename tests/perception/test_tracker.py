@@ -162,7 +162,8 @@ def test_duplicate_of_another_class_joins_the_track_and_votes_for_its_class() ->
     # pedestrian 0.4 and cyclist 0.3 (per-class NMS keeps both; both below high_score).
     seen = {}
     for dup in (None, 0.55):
-        tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, class_memory=0.9, duplicate_iou=dup))
+        tr = Tracker(TrackerConfig(min_hits=1, class_switch_cost=0.2, class_memory=0.9, duplicate_iou=dup,
+                                   class_hysteresis=1.0))
         ids, classes = set(), []
         for t in range(10):
             out = tr.update(dets([box(100 + 5 * t, 200)], score=0.6, cls=CYC))
@@ -179,6 +180,22 @@ def test_duplicate_of_another_class_joins_the_track_and_votes_for_its_class() ->
     ids, classes, merged = seen[0.55]
     assert ids == {1} and merged == 20
     assert classes[0] == CYC and classes[-1] == PED  # both boxes vote: the pedestrian evidence wins
+
+
+def test_class_hysteresis_holds_the_class_through_near_even_evidence() -> None:
+    # the detector alternates between pedestrian and cyclist at the same score
+    seq = [(PED, 0.5), (CYC, 0.5)] * 8
+    out_classes = {}
+    for h in (1.0, 1.25):
+        tr = Tracker(TrackerConfig(min_hits=1, class_memory=0.9, class_hysteresis=h))
+        out_classes[h] = [int(tr.update(dets([box(100 + 5 * t, 200)], score=s, cls=c)).class_id[0])
+                          for t, (c, s) in enumerate(seq)]
+    assert out_classes[1.0] == [c for c, _ in seq]  # the plain argmax flips every frame
+    assert out_classes[1.25] == [PED] * len(seq)
+    tr = Tracker(TrackerConfig(min_hits=1, class_memory=0.9, class_hysteresis=1.25))
+    for t in range(30):  # a lasting change still wins
+        out = tr.update(dets([box(100 + 5 * t, 200)], cls=PED if t < 5 else CYC))
+    assert out.class_id.tolist() == [CYC]
 
 
 def test_duplicates_do_not_merge_separate_objects() -> None:
