@@ -637,7 +637,7 @@ class Tracker:
                     feats = feats[valid]
         evidence = self._class_evidence(classes, scores)
         if cfg.duplicate_iou is not None and len(boxes) > 1:
-            lead = self._merge_duplicates(boxes, scores, classes, evidence)
+            lead = self._merge_duplicates(boxes, scores, evidence)
             if lead is not None:
                 self.merged_duplicates += len(lead) - int(np.count_nonzero(lead))
                 orig_index = np.flatnonzero(lead) if orig_index is None else orig_index[lead]
@@ -801,9 +801,7 @@ class Tracker:
         evidence[np.arange(len(classes)), col] = np.maximum(scores, 1e-6)
         return evidence
 
-    def _merge_duplicates(
-        self, boxes: np.ndarray, scores: np.ndarray, classes: np.ndarray, evidence: np.ndarray
-    ) -> np.ndarray | None:
+    def _merge_duplicates(self, boxes: np.ndarray, scores: np.ndarray, evidence: np.ndarray) -> np.ndarray | None:
         """Fold duplicate detections (``duplicate_iou``) into their leaders' ``evidence`` (in place).
 
         A detection at or above ``low_score`` leads unless a higher-scoring one (ties:
