@@ -28,12 +28,13 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that mean the user's input or environment is wrong (not a bug)."""
     from perception.detectors.onnx_detector import ModelError
     from sim.scenario import ScenarioError
+    from tools.detector.train import ResumeError
     from tools.regress import BaselineError
     from tools.rundir import OutputError
     from tools.store import StoreError
 
-    return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, FileNotFoundError, PermissionError,
-            NotADirectoryError, IsADirectoryError)
+    return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, FileNotFoundError,
+            PermissionError, NotADirectoryError, IsADirectoryError)
 
 
 def user_errors(fn):
@@ -445,6 +446,7 @@ def train_detector(
     log_file: Annotated[Path | None, typer.Option("--log", help="write the training log (JSON) here")] = None,
     init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model) or an exported .onnx model")] = None,
     crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
+    resume: Annotated[bool, typer.Option("--resume", help="continue this same command's interrupted run from the state saved beside --out after each epoch")] = False,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
     try:
@@ -463,7 +465,7 @@ def train_detector(
                       init=None if init is None else str(init), crop=crop)
     with _progress() as prog:
         task = prog.add_task("training", total=1.0)
-        result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f))
+        result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f), resume=resume)
     if log_file is not None:
         log_file.parent.mkdir(parents=True, exist_ok=True)
         log_file.write_text(json.dumps(result, indent=2) + "\n")

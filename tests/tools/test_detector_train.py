@@ -80,6 +80,34 @@ def test_recall_at_precision_and_ap_on_paper():
     assert recall_at_precision(score, tp, 4, 0.7) == pytest.approx(0.75)
 
 
+def test_a_split_reads_its_images_when_used_and_names_a_bad_one(tmp_path):
+    import cv2
+
+    from tools.detector.data import load_split
+
+    rng = np.random.default_rng(0)
+    frames = [rng.integers(0, 256, (36, 64, 3), dtype=np.uint8) for _ in range(3)]
+    (tmp_path / "images").mkdir()
+    doc = {"images": [], "annotations": [], "categories": []}
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(tmp_path / "images" / f"{i}.png"), cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+        doc["images"].append({"id": i + 1, "file_name": f"images/{i}.png", "height": 36, "width": 64})
+    doc["annotations"].append({"id": 1, "image_id": 2, "bbox": [4, 5, 10, 20], "category_id": 5,
+                               "occlusion": 0.25, "attributes": {"range_m": 12.0}})
+    (tmp_path / "annotations.json").write_text(json.dumps(doc))
+    split = load_split(tmp_path)
+    assert len(split.images) == 3 and split.classes[1].tolist() == [4] and split.visible[1][0] == 0.75
+    np.testing.assert_array_equal(split.images[1], frames[1])  # RGB, as written
+    np.testing.assert_array_equal(split.boxes[1], [[4, 5, 14, 25]])
+    assert len(load_split(tmp_path, limit=2).images) == 2
+    cv2.imwrite(str(tmp_path / "images" / "2.png"), np.zeros((10, 10, 3), np.uint8))
+    with pytest.raises(ValueError, match=r"2\.png: 10x10 px, the split's first image is 64x36"):
+        split.images[2]
+    (tmp_path / "images" / "0.png").unlink()
+    with pytest.raises(FileNotFoundError, match=r"0\.png: no such image \(1 of 3 missing\)"):
+        load_split(tmp_path)
+
+
 def test_evaluate_split_counts_by_range_and_visibility():
     from tools.detector.data import Split
 
@@ -97,16 +125,23 @@ def test_evaluate_split_counts_by_range_and_visibility():
     assert m["recall"] == 1.0 and m["precision"] == 0.5 and m["ap50"] == 1.0
 
 
-def test_a_real_training_run_exports_a_model_the_detector_runs(tmp_path):
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory) -> Path:
+    """Four training and two validation frames exported from the scene generator."""
     from tools.export import export_generated
 
-    gen = tmp_path / "gen.yaml"
+    root = tmp_path_factory.mktemp("det")
+    gen = root / "gen.yaml"
     gen.write_text("generator:\n  duration: 1.0\n  splits:\n    train: {seeds: [0, 2]}\n    val: {seeds: [900, 901]}\n")
-    export_generated(gen, "coco", 1, tmp_path / "ds")
-    doc = json.loads((tmp_path / "ds" / "train" / "annotations.json").read_text())
+    export_generated(gen, "coco", 1, root / "ds")
+    return root / "ds"
+
+
+def test_a_real_training_run_exports_a_model_the_detector_runs(tiny_dataset, tmp_path):
+    doc = json.loads((tiny_dataset / "train" / "annotations.json").read_text())
     assert len(doc["images"]) == 4 and doc["annotations"]
     out = tmp_path / "m.onnx"
-    result = train(tmp_path / "ds", out, TrainConfig(epochs=2, batch=2, warmup_steps=1, eval_every=0))
+    result = train(tiny_dataset, out, TrainConfig(epochs=2, batch=2, warmup_steps=1, eval_every=0))
     assert result["history"][-1]["loss"] < result["history"][0]["loss"] * 1.5
     assert "val" in result["history"][-1]
     det = OnnxDetector(out)
@@ -116,6 +151,37 @@ def test_a_real_training_run_exports_a_model_the_detector_runs(tmp_path):
     assert d.xyxy.shape[1] == 4
     net = CenterDet()
     assert sum(p.numel() for p in net.parameters()) < 2_000_000
+
+
+def test_an_interrupted_run_resumes_to_the_weights_of_an_uninterrupted_one(tiny_dataset, tmp_path):
+    from tools.detector.train import ResumeError, state_path
+
+    cfg = TrainConfig(epochs=3, batch=2, warmup_steps=1, eval_every=2)
+    whole = train(tiny_dataset, tmp_path / "whole.onnx", cfg)
+
+    class Crash(Exception):
+        pass
+
+    def crash_in_epoch_3(fraction):  # after the first step of the third epoch (2 steps per epoch)
+        if fraction > 2 / 3:
+            raise Crash
+
+    cut = tmp_path / "cut.onnx"
+    with pytest.raises(Crash):
+        train(tiny_dataset, cut, cfg, progress=crash_in_epoch_3)
+    assert state_path(cut).is_file()
+    with pytest.raises(ResumeError, match=r"cut\.state\.pt: written by a different run: lr=0\.002 \(now 0\.001\)"):
+        train(tiny_dataset, cut, TrainConfig(epochs=3, batch=2, warmup_steps=1, eval_every=2, lr=1e-3), resume=True)
+    resumed = train(tiny_dataset, cut, cfg, resume=True)
+    a = torch.load(tmp_path / "whole.pt", weights_only=True)
+    b = torch.load(tmp_path / "cut.pt", weights_only=True)
+    assert a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+    assert [e["loss"] for e in resumed["history"]] == [e["loss"] for e in whole["history"]]
+    assert resumed["history"][1]["val"] == whole["history"][1]["val"]  # epoch 2's validation, from before the cut
+    with pytest.raises(ResumeError, match="nothing to resume, all 3 epochs are done"):
+        train(tiny_dataset, cut, cfg, resume=True)
+    with pytest.raises(FileNotFoundError, match="no training state to resume"):
+        train(tiny_dataset, tmp_path / "never.onnx", cfg, resume=True)
 
 
 def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
@@ -151,3 +217,13 @@ def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
     assert float((train_heat - eval_heat).abs().mean()) < 0.01
     with pytest.raises(ModelError, match="convolution"):
         load_exported(CenterDet(widths=(16, 32, 64, 96, 128)), shipped, calib)
+
+
+def test_resume_without_a_state_is_one_line_and_exit_2(tiny_dataset, tmp_path):
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"), "--resume"])
+    assert res.exit_code == 2
+    assert "m.state.pt: no training state to resume" in res.output and "Traceback" not in res.output

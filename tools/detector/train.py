@@ -13,6 +13,13 @@ on CPU). Every draw comes from ``seed`` (crop sampling, augmentation, init), and
 torch runs deterministic algorithms; on this CPU the same command gives the same
 weights (thread scheduling aside, bit-exactness is not promised across machines).
 
+After every epoch the run writes, beside ``out``, the weights (``.pt``, for
+``--init``) and its whole training state (``.state.pt``: weights, AdamW moments,
+step, the sampler's random state, the log so far). ``resume=True`` continues an
+interrupted run from that state -- the same command with ``--resume`` -- and ends
+with the weights the uninterrupted run would have (tested); a run of several
+hours can so span several sittings.
+
 The exported ONNX (opset 17) takes ``images`` (1, 3, 384, 640) float RGB in [0, 1]
 and gives ``output0`` (1, 4 + 8, 15360) in the YOLOv8 layout (``model.Decoded``),
 with Ultralytics-style metadata (``names``, ``stride``, ``imgsz``) plus how it was
@@ -142,17 +149,58 @@ def lr_at(step: int, total: int, cfg: TrainConfig) -> float:
     return cfg.lr * (0.02 + 0.98 * 0.5 * (1 + math.cos(math.pi * t)))
 
 
-def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
+class ResumeError(ValueError):
+    """A training state that does not belong to this run (one line: file and what differs)."""
+
+
+def state_path(out: Path) -> Path:
+    """The training state written beside the model ``out`` after every epoch."""
+    return Path(out).with_suffix(".state.pt")
+
+
+def _load_state(path: Path, cfg: TrainConfig, data_dir: Path) -> dict:
+    import torch
+
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no training state to resume (it is written after each epoch)")
+    state = torch.load(path, map_location="cpu", weights_only=False)
+    was, now = state["config"], asdict(cfg)
+    now["crop"] = list(now["crop"])
+    was = {**was, "crop": list(was["crop"])}
+    diff = [f"{k}={was.get(k)!r} (now {now[k]!r})" for k in now if was.get(k) != now[k]]
+    if state["data"] != str(Path(data_dir).resolve()):
+        diff.insert(0, f"data={state['data']!r} (now {str(Path(data_dir).resolve())!r})")
+    if diff:
+        raise ResumeError(f"{path}: written by a different run: " + ", ".join(diff))
+    if state["epoch"] >= cfg.epochs:
+        raise ResumeError(f"{path}: nothing to resume, all {cfg.epochs} epochs are done")
+    return state
+
+
+def _save_state(path: Path, state: dict) -> None:
+    import torch
+
+    tmp = path.with_suffix(".tmp")
+    torch.save(state, tmp)
+    tmp.replace(path)  # a crash while writing leaves the previous epoch's state
+
+
+def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bool = False) -> dict:
     """Train on ``data_dir/train`` (validating on ``data_dir/val`` when present); write ``out`` (ONNX).
 
-    Returns the training log: per-epoch losses and validation metrics, seconds.
+    ``resume``: continue from ``state_path(out)``, which must come from this very
+    configuration and data. Returns the training log: per-epoch losses and
+    validation metrics, seconds.
     """
+    import copy
+
     import torch
 
     from tools.detector.data import TrainSampler, load_split
     from tools.detector.evaluate import evaluate_model
     from tools.detector.model import CenterDet
 
+    state = _load_state(state_path(out), cfg, Path(data_dir)) if resume else None
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.threads)
     torch.use_deterministic_algorithms(True, warn_only=True)
@@ -160,7 +208,9 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
     val_dir = Path(data_dir) / "val"
     sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed)
     net = CenterDet(len(CLASSES))
-    if cfg.init and Path(cfg.init).suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
+    if state is not None:
+        pass  # weights below, with the optimiser
+    elif cfg.init and Path(cfg.init).suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
         from tools.detector.from_onnx import load_exported
 
         calib_rng = np.random.default_rng([cfg.seed, 2])
@@ -180,20 +230,27 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
     total = steps_per_epoch * cfg.epochs
     order_rng = np.random.default_rng([cfg.seed, 1])
     history: list[dict] = []
-    t_start = time.perf_counter()
-    step = 0
+    step, first_epoch, elapsed = 0, 0, 0.0
+    if state is not None:
+        net.load_state_dict(state["net"])
+        opt.load_state_dict(state["opt"])
+        sampler.rng.bit_generator.state = state["sampler_rng"]
+        torch.set_rng_state(state["torch_rng"])
+        step, first_epoch, elapsed, history = state["step"], state["epoch"], state["seconds"], state["history"]
+        log.info("resuming %s after epoch %d of %d", state_path(out), first_epoch, cfg.epochs)
+    t_start = time.perf_counter() - elapsed
     from concurrent.futures import ThreadPoolExecutor
 
     prefetch = ThreadPoolExecutor(1)  # the next batch is cut (numpy/OpenCV, GIL released) during this step
     batches = [order_rng.permutation(n) for _ in range(cfg.epochs)]
     plan = [(e, p[b * cfg.batch:(b + 1) * cfg.batch]) for e, p in enumerate(batches) for b in range(steps_per_epoch)]
-    pending = prefetch.submit(sampler.batch, plan[0][1])
-    for epoch in range(cfg.epochs):
+    pending = prefetch.submit(sampler.batch, plan[step][1])
+    for epoch in range(first_epoch, cfg.epochs):
         net.train()
         sums = np.zeros(3)
-        for _ in range(steps_per_epoch):
+        for i in range(steps_per_epoch):
             x, t = pending.result()
-            if step + 1 < len(plan):
+            if i + 1 < steps_per_epoch:  # the next epoch's first batch is cut after the state is saved
                 pending = prefetch.submit(sampler.batch, plan[step + 1][1])
             xt = torch.from_numpy(x).float().div_(255.0).contiguous(memory_format=torch.channels_last)
             tt = {k: torch.from_numpy(v) for k, v in t.items()}
@@ -216,6 +273,9 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
                  "s": round(time.perf_counter() - t_start, 1)}
         torch.save(net.state_dict(), checkpoint)
         last = epoch + 1 == cfg.epochs
+        sampler_rng = copy.deepcopy(sampler.rng.bit_generator.state)
+        if not last:
+            pending = prefetch.submit(sampler.batch, plan[step][1])
         if val_dir.is_dir() and (last or (cfg.eval_every and (epoch + 1) % cfg.eval_every == 0)):
             export_onnx(net, out, model_metadata(cfg, str(data_dir)))
             m = evaluate_model(out, val_dir)
@@ -223,6 +283,11 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None) -> dict:
             net.to(memory_format=torch.channels_last)
         log.info("epoch %s", entry)
         history.append(entry)
+        _save_state(state_path(out), {
+            "config": asdict(cfg), "data": str(Path(data_dir).resolve()), "epoch": epoch + 1, "step": step,
+            "seconds": round(time.perf_counter() - t_start, 1), "history": history, "net": net.state_dict(),
+            "opt": opt.state_dict(), "sampler_rng": sampler_rng, "torch_rng": torch.get_rng_state(),
+        })
     prefetch.shutdown()
     seconds = time.perf_counter() - t_start
     export_onnx(net, out, model_metadata(cfg, str(data_dir), {"train_seconds": round(seconds, 1)}))
