@@ -509,6 +509,12 @@ def eval_detector(
         f = lambda v: f"{v:6.3f}" if v is not None else "     -"  # noqa: E731
         print(f"{sp[-32:]:32s} {f(m['ap50'])} {f(m['ap50_pooled'])} {f(m['recall_at_p95'])} "
               f"{f(m['precision'])} {f(m['recall'])}  {pc}")
+    print("recall by range (m), and what became of the objects not found:")
+    for sp, m in results.items():
+        bands = " ".join(f"{k}={v['found'] / v['gt']:.2f}" if v["gt"] else f"{k}=-" for k, v in m["outcomes"]["by_range"].items())
+        lost = {k: sum(v[k] for v in m["outcomes"]["by_class"].values()) for k in ("wrong_class", "loose", "missed")}
+        n = max(1, sum(lost.values()))
+        print(f"{sp[-32:]:32s} {bands}  | " + " ".join(f"{k} {v} ({v / n:.0%})" for k, v in lost.items()))
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(results, indent=2) + "\n")

@@ -80,6 +80,26 @@ def test_recall_at_precision_and_ap_on_paper():
     assert recall_at_precision(score, tp, 4, 0.7) == pytest.approx(0.75)
 
 
+def test_each_object_not_found_is_told_apart_as_wrong_class_loose_or_missed():
+    from tools.detector.data import Split
+
+    gt = np.array([[10, 10, 50, 90], [100, 10, 140, 90], [200, 10, 240, 90], [260, 10, 300, 90]], np.float32)
+    split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 4, 4])],
+                  visible=[np.ones(4, np.float32)], ranges=[np.array([7.0, 15.0, 25.0, 45.0])], names=["a.png"])
+
+    def detect(img):  # found; right box, wrong class; right class, box too far off; nothing near the 4th
+        xyxy = np.array([[10, 10, 50, 90], [100, 10, 140, 90], [218, 10, 258, 90]], np.float64)
+        return xyxy, np.array([0.9, 0.8, 0.7]), np.array([0, 1, 4])
+
+    m = evaluate_split(split, detect, min_size=0)
+    out = m["outcomes"]
+    assert out["by_class"]["pedestrian"] == {"gt": 2, "found": 1, "wrong_class": 1, "loose": 0, "missed": 0}
+    assert out["by_class"]["car"] == {"gt": 2, "found": 0, "wrong_class": 0, "loose": 1, "missed": 1}
+    assert [v["found"] for v in out["by_range"].values()] == [1, 0, 0, 0, 0]
+    assert [v["gt"] for v in out["by_range"].values()] == [1, 1, 1, 0, 1]
+    assert sum(v["found"] for v in out["by_class"].values()) == round(m["recall"] * m["gt"])
+
+
 def test_a_split_reads_its_images_when_used_and_names_a_bad_one(tmp_path):
     import cv2
 

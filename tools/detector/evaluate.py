@@ -16,7 +16,12 @@ Reported (``evaluate_split``):
 * ``recall_at_p95``: the highest recall at which precision is still >= 0.95 (pooled);
 * ``precision`` / ``recall`` at the detector's operating threshold (``conf``);
 * ``per_class`` AP50 and recall, and the same with a class-agnostic match
-  (``agnostic``: a box of the wrong class still finds the object).
+  (``agnostic``: a box of the wrong class still finds the object);
+* ``outcomes``: what became of each evaluated object at the operating threshold
+  (``gt_outcomes``), per class and per range band (``RANGE_BANDS``): ``found``
+  (matched by a box of its class), else ``wrong_class`` (a box of another class at
+  IoU >= 0.5), else ``loose`` (some box at IoU >= ``LOOSE_IOU``: found, badly
+  boxed), else ``missed`` -- where to look when recall falls short.
 
 Detections are computed at a low score threshold (``AP_CONF``) once; operating-point
 figures keep those with score > ``conf``.
@@ -43,6 +48,9 @@ AP_CONF = 0.01
 PRECISION_FLOOR = 0.95
 
 TP, FP, IGNORED = 1, 0, -1
+OUTCOMES = ("found", "wrong_class", "loose", "missed")
+LOOSE_IOU = 0.1
+RANGE_BANDS = (5.0, 10.0, 20.0, 30.0, 40.0, 50.0)  # m, band edges
 
 
 def match_image(
@@ -57,6 +65,33 @@ def match_image(
     iou_dc = class_iou(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated], min_size)
     ignored = ~tp & np.any(iou_dc >= IOU_THRESHOLD, axis=1)
     return np.where(tp, TP, np.where(ignored, IGNORED, FP))
+
+
+def gt_outcomes(
+    xyxy: np.ndarray, score: np.ndarray, cls: np.ndarray, gt: np.ndarray, gt_cls: np.ndarray,
+    min_size: float = MIN_MATCH_SIZE_PX,
+) -> np.ndarray:
+    """Index into ``OUTCOMES`` (K,) of each ground-truth box given the detections kept at
+    the operating threshold (module docstring); greedy class-aware matching as for AP."""
+    same = class_iou(xyxy, cls, gt, gt_cls, min_size)
+    matched = greedy_match(same, np.argsort(-score, kind="stable"))
+    found = np.zeros(len(gt), dtype=bool)
+    found[matched[matched >= 0]] = True
+    any_iou = class_iou(xyxy, None, gt, None, min_size).max(axis=0, initial=0.0)
+    wrong = any_iou >= IOU_THRESHOLD  # a same-class box this close would have matched (or a rival took it)
+    return np.where(found, 0, np.where(wrong, 1, np.where(any_iou >= LOOSE_IOU, 2, 3)))
+
+
+def _outcome_table(outcome: np.ndarray, gt_cls: np.ndarray, gt_range: np.ndarray) -> dict:
+    def counts(sel: np.ndarray) -> dict:
+        c = np.bincount(outcome[sel], minlength=len(OUTCOMES))
+        return {"gt": int(sel.sum()), **{k: int(v) for k, v in zip(OUTCOMES, c, strict=True)}}
+
+    by_class = {CLASSES[c]: counts(gt_cls == c) for c in range(len(CLASSES)) if np.any(gt_cls == c)}
+    edges = np.asarray(RANGE_BANDS)
+    band = np.clip(np.searchsorted(edges, gt_range, side="right") - 1, 0, len(edges) - 2)
+    by_range = {f"{edges[b]:g}-{edges[b + 1]:g}": counts(band == b) for b in range(len(edges) - 1)}
+    return {"by_class": by_class, "by_range": by_range}
 
 
 def recall_at_precision(score: np.ndarray, is_tp: np.ndarray, n_gt: int, floor: float) -> float:
@@ -109,7 +144,7 @@ def evaluate_split(
     """Accuracy of ``detect`` (RGB image -> xyxy, score, class id in image px) on ``split``;
     ``min_size``: boxes grown to at least this many px for IoU (0: plain IoU)."""
     status = {False: [], True: []}
-    scores, classes, gt_classes = [], [], []
+    scores, classes, gt_classes, gt_ranges, outcomes = [], [], [], [], []
     for i in range(len(split.images)):
         boxes = split.boxes[i]
         xyxy, score, cls = detect(split.images[i])
@@ -122,11 +157,16 @@ def evaluate_split(
         scores.append(score)
         classes.append(cls)
         gt_classes.append(split.classes[i][evaluated])
+        gt_ranges.append(rng[evaluated])
+        op = score > conf
+        outcomes.append(gt_outcomes(xyxy[op], score[op], cls[op], boxes[evaluated], split.classes[i][evaluated],
+                                    min_size))
     cat = lambda parts, dt: np.concatenate(parts).astype(dt) if parts else np.zeros(0, dt)  # noqa: E731
     score, cls, gt_cls = cat(scores, np.float64), cat(classes, np.int64), cat(gt_classes, np.int64)
     result = _summary(cat(status[False], np.int64), score, cls, gt_cls, conf)
     agn = _summary(cat(status[True], np.int64), score, np.zeros_like(cls), np.zeros_like(gt_cls), conf)
     result["agnostic"] = {k: agn[k] for k in ("ap50", "recall_at_p95", "precision", "recall")}
+    result["outcomes"] = _outcome_table(cat(outcomes, np.int64), gt_cls, cat(gt_ranges, np.float64))
     result["images"] = len(split.images)
     result["conf"] = conf
     result["min_box_px"] = min_size
