@@ -77,9 +77,10 @@ def gt_outcomes(
     matched = greedy_match(same, np.argsort(-score, kind="stable"))
     found = np.zeros(len(gt), dtype=bool)
     found[matched[matched >= 0]] = True
-    any_iou = class_iou(xyxy, None, gt, None, min_size).max(axis=0, initial=0.0)
-    wrong = any_iou >= IOU_THRESHOLD  # a same-class box this close would have matched (or a rival took it)
-    return np.where(found, 0, np.where(wrong, 1, np.where(any_iou >= LOOSE_IOU, 2, 3)))
+    iou = class_iou(xyxy, None, gt, None, min_size)
+    other = np.where(np.asarray(cls)[:, None] != np.asarray(gt_cls)[None, :], iou, 0.0).max(axis=0, initial=0.0)
+    near = iou.max(axis=0, initial=0.0)
+    return np.where(found, 0, np.where(other >= IOU_THRESHOLD, 1, np.where(near >= LOOSE_IOU, 2, 3)))
 
 
 def _outcome_table(outcome: np.ndarray, gt_cls: np.ndarray, gt_range: np.ndarray) -> dict:

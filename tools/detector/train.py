@@ -158,18 +158,19 @@ def state_path(out: Path) -> Path:
     return Path(out).with_suffix(".state.pt")
 
 
+def _run_identity(cfg: TrainConfig, data_dir: Path) -> dict:
+    """What a saved state must share with the run resuming it: the data and every option."""
+    return {"data": str(Path(data_dir).resolve()), **asdict(cfg), "crop": list(cfg.crop)}
+
+
 def _load_state(path: Path, cfg: TrainConfig, data_dir: Path) -> dict:
     import torch
 
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no training state to resume (it is written after each epoch)")
     state = torch.load(path, map_location="cpu", weights_only=False)
-    was, now = state["config"], asdict(cfg)
-    now["crop"] = list(now["crop"])
-    was = {**was, "crop": list(was["crop"])}
+    was, now = state["run"], _run_identity(cfg, data_dir)
     diff = [f"{k}={was.get(k)!r} (now {now[k]!r})" for k in now if was.get(k) != now[k]]
-    if state["data"] != str(Path(data_dir).resolve()):
-        diff.insert(0, f"data={state['data']!r} (now {str(Path(data_dir).resolve())!r})")
     if diff:
         raise ResumeError(f"{path}: written by a different run: " + ", ".join(diff))
     if state["epoch"] >= cfg.epochs:
@@ -208,17 +209,16 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
     val_dir = Path(data_dir) / "val"
     sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed)
     net = CenterDet(len(CLASSES))
-    if state is not None:
-        pass  # weights below, with the optimiser
-    elif cfg.init and Path(cfg.init).suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
+    init = None if state is not None else cfg.init  # a resumed run takes its weights from the state
+    if init and Path(init).suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
         from tools.detector.from_onnx import load_exported
 
         calib_rng = np.random.default_rng([cfg.seed, 2])
         calib = (torch.from_numpy(sampler.batch(calib_rng.choice(len(train_split.images), cfg.batch))[0])
                  .float().div_(255.0) for _ in range(CALIBRATION_BATCHES))
-        load_exported(net, cfg.init, calib)
-    elif cfg.init:
-        net.load_state_dict(torch.load(cfg.init, map_location="cpu", weights_only=True))
+        load_exported(net, init, calib)
+    elif init:
+        net.load_state_dict(torch.load(init, map_location="cpu", weights_only=True))
     net = net.to(memory_format=torch.channels_last)
     checkpoint = Path(out).with_suffix(".pt")  # weights after every epoch (to resume or fine-tune)
     decay = [p for n, p in net.named_parameters() if p.ndim > 1]
@@ -284,7 +284,7 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
         log.info("epoch %s", entry)
         history.append(entry)
         _save_state(state_path(out), {
-            "config": asdict(cfg), "data": str(Path(data_dir).resolve()), "epoch": epoch + 1, "step": step,
+            "run": _run_identity(cfg, data_dir), "epoch": epoch + 1, "step": step,
             "seconds": round(time.perf_counter() - t_start, 1), "history": history, "net": net.state_dict(),
             "opt": opt.state_dict(), "sampler_rng": sampler_rng, "torch_rng": torch.get_rng_state(),
         })
