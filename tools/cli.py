@@ -421,6 +421,9 @@ def export_dataset(
     split: Annotated[list[str] | None, typer.Option("--split", help="generator: split(s) to export (default all)")] = None,
     weather: Annotated[str | None, typer.Option("--weather", help="generator: force clear | night | fog | rain")] = None,
     workers: Annotated[int, typer.Option("--workers", min=1, help="generator: scenes in parallel processes")] = 1,
+    seeds: Annotated[tuple[int, int] | None, typer.Option(
+        "--seeds", metavar="FIRST LAST", help="generator: scene seeds [FIRST, LAST) for the one --split, instead of "
+        "its range in the file (must not overlap the other splits)")] = None,
 ) -> None:
     """Run scenarios with rendering and export images + ground-truth labels as a dataset.
 
@@ -429,7 +432,7 @@ def export_dataset(
     """
     from tools.export import export_command
 
-    raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers))
+    raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds))
 
 
 @app.command("train-detector")

@@ -389,9 +389,12 @@ def _run_export(scenarios: Sequence[Scenario], writer: Writer, every: int, rende
 def export_generated(
     gen_path: Path, fmt: str, every: int, out: Path, splits: Sequence[str] | None = None,
     weather: str | None = None, workers: int = 1, chunk: int = 8, progress=None,
+    seeds: tuple[int, int] | None = None,
 ) -> dict:
     """Export the scenes of a generator file (``tools.scene_gen``), one dataset per split in
     ``out/<split>``; ``weather`` forces one weather kind on every scene (same scenes).
+    ``seeds`` [first, last) replaces the seed range of the one split exported (more scenes
+    of it, e.g. a second training set); it must not overlap another split's range.
 
     Scenes run on a process pool of ``workers`` in chunks of ``chunk`` seeds; the
     result does not depend on ``workers`` (COCO ids follow seed order).
@@ -405,9 +408,11 @@ def export_generated(
         raise ValueError(f"--every: expected an integer >= 1, got {every}")
     spec = load_generator(gen_path)
     splits = list(splits or spec.splits)
-    seeds = {sp: list(split_seeds(spec, sp)) for sp in splits}  # validates the split names
+    if seeds is not None:
+        spec = with_split_seeds(spec, splits, seeds, gen_path)
+    split_list = {sp: list(split_seeds(spec, sp)) for sp in splits}  # validates the split names
     for sp in splits:  # validate a scene of each split (and the weather name) before running anything
-        generate_scenario(spec, seeds[sp][0], weather)
+        generate_scenario(spec, split_list[sp][0], weather)
     out = prepare_dir(Path(out))
     result: dict = {"format": fmt, "out": str(out), "every": every, "weather": weather, "splits": {}}
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) if workers > 1 else None
@@ -415,8 +420,8 @@ def export_generated(
         for sp in splits:
             split_dir = prepare_dir(out / sp)
             writer = make_writer(fmt, split_dir, every)
-            jobs = [(str(gen_path), seeds[sp][i:i + chunk], weather, fmt, every, str(split_dir))
-                    for i in range(0, len(seeds[sp]), chunk)]
+            jobs = [(str(gen_path), split_list[sp][i:i + chunk], weather, fmt, every, str(split_dir))
+                    for i in range(0, len(split_list[sp]), chunk)]
             if pool is None:
                 parts = []
                 for job in jobs:
@@ -442,12 +447,33 @@ def export_generated(
             writer.sequences = [_Seq(s["name"], spec.camera.width, spec.camera.height, spec.camera.rate)
                                 for s in seqs]
             writer.finish()
-            result["splits"][sp] = {"scenes": len(seeds[sp]), "frames": sum(s["frames"] for s in seqs),
+            result["splits"][sp] = {"scenes": len(split_list[sp]), "seeds": list(spec.splits[sp].seeds),
+                                    "frames": sum(s["frames"] for s in seqs),
                                     "objects": sum(s["objects"] for s in seqs)}
     finally:
         if pool is not None:
             pool.shutdown()
     return result
+
+
+def with_split_seeds(spec, splits: Sequence[str], seeds: tuple[int, int], gen_path: Path):
+    """``spec`` with the seed range of the single split in ``splits`` set to ``seeds``
+    [first, last); ValueError (naming the file) when that is not one split, or the range is
+    empty or overlaps another split's."""
+    from tools.scene_gen import SplitSpec, split_seeds
+
+    if len(splits) != 1:
+        raise ValueError(f"--seeds: replaces the range of one split, give exactly one --split (got {len(splits)})")
+    sp = splits[0]
+    split_seeds(spec, sp)  # the split exists
+    lo, hi = seeds
+    if not 0 <= lo < hi:
+        raise ValueError(f"--seeds: expected FIRST LAST with 0 <= FIRST < LAST, got {lo} {hi}")
+    for other, s in spec.splits.items():
+        if other != sp and lo < s.seeds[1] and s.seeds[0] < hi:
+            raise ValueError(f"--seeds: [{lo}, {hi}) overlaps split {other!r} [{s.seeds[0]}, {s.seeds[1]}) "
+                             f"of {gen_path}")
+    return spec.model_copy(update={"splits": {**spec.splits, sp: SplitSpec(seeds=(lo, hi))}})
 
 
 def load_sources(source: Path) -> list[Scenario]:
@@ -469,12 +495,12 @@ def export_dataset(source: Path, fmt: str, every: int, out: Path, render: bool =
 
 def export_command(
     source: Path, fmt: str, every: int, out: Path, render: bool = True, splits: Sequence[str] | None = None,
-    weather: str | None = None, workers: int = 1, progress=None,
+    weather: str | None = None, workers: int = 1, progress=None, seeds: tuple[int, int] | None = None,
 ) -> int:
     """CLI body of ``lookahead export-dataset``: 0, or 2 with one ``error:`` line.
 
     ``source`` may be a scenario, a suite or a generator file (``tools.scene_gen``);
-    ``splits``, ``weather`` and ``workers`` apply to generator files only.
+    ``splits``, ``weather``, ``workers`` and ``seeds`` apply to generator files only.
     """
     from tools.scene_gen import is_generator
     from tools.suite import read_yaml
@@ -484,13 +510,13 @@ def export_command(
             raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
         if is_generator(read_yaml(source, "scenario, suite or generator")):
             result = export_generated(Path(source), fmt, every, Path(out), splits, weather, workers,
-                                      progress=progress)
+                                      progress=progress, seeds=seeds)
             for sp, r in result["splits"].items():
                 print(f"{sp}: {r['scenes']} scenes, {r['frames']} frames, {r['objects']} objects")
             print(f"{fmt} dataset -> {out}")
             return 0
-        if splits or weather:
-            raise ValueError("--split and --weather apply to generator files only")
+        if splits or weather or seeds:
+            raise ValueError("--split, --weather and --seeds apply to generator files only")
         result = export_dataset(Path(source), fmt, every, Path(out), render=render)
     except (ScenarioError, OutputError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

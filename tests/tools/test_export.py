@@ -210,3 +210,33 @@ def test_export_dataset_from_suite_yaml_and_cli_errors(short, tmp_path: Path, ca
     assert capsys.readouterr().err.startswith("error: ")
     assert export_command(sc, "yolo", 0, tmp_path / "x") == 2
     assert "--every" in capsys.readouterr().err
+
+
+def test_a_generator_split_exported_with_other_seeds(tmp_path: Path) -> None:
+    """``--seeds`` gives the scenes a file with that range would give; overlaps are refused."""
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    def gen(train: str) -> Path:
+        path = tmp_path / f"gen_{train.replace(', ', '_')}.yaml"
+        path.write_text(f"generator:\n  duration: 0.5\n  splits:\n    train: {{seeds: [{train}]}}\n"
+                        "    val: {seeds: [900, 901]}\n")
+        return path
+
+    run = CliRunner().invoke
+    base = ["export-dataset", str(gen("0, 2")), "--format", "coco", "--split", "train"]
+    res = run(app, [*base, "--seeds", "7", "8", "--out", str(tmp_path / "more")])
+    assert res.exit_code == 0, res.output
+    assert "train: 1 scenes" in res.output
+    res = run(app, ["export-dataset", str(gen("7, 8")), "--format", "coco", "--split", "train",
+                    "--out", str(tmp_path / "file")])
+    assert res.exit_code == 0, res.output
+    a = (tmp_path / "more" / "train" / "annotations.json").read_text()
+    assert a == (tmp_path / "file" / "train" / "annotations.json").read_text()
+    assert json.loads(a)["images"] and json.loads(a)["annotations"]
+    res = run(app, [*base, "--seeds", "899", "905", "--out", str(tmp_path / "bad")])
+    assert res.exit_code == 2 and "--seeds: [899, 905) overlaps split 'val' [900, 901)" in res.output
+    res = run(app, [*base[:-2], "--seeds", "7", "8", "--out", str(tmp_path / "bad")])
+    assert res.exit_code == 2 and "give exactly one --split" in res.output
+    assert not (tmp_path / "bad").exists()  # refused before anything was written
