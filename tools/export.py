@@ -53,6 +53,7 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -64,6 +65,9 @@ from sim.records import Sink, TickRecord
 from sim.scenario import Scenario, ScenarioError, load_scenario
 from tools.rundir import OutputError, prepare_dir
 from tools.scoring.matching import class_iou, hungarian_match
+
+if TYPE_CHECKING:
+    from tools.scene_gen import GeneratorSpec
 
 log = logging.getLogger(__name__)
 
@@ -456,11 +460,12 @@ def export_generated(
     return result
 
 
-def with_split_seeds(spec, splits: Sequence[str], seeds: tuple[int, int], gen_path: Path):
+def with_split_seeds(spec: GeneratorSpec, splits: Sequence[str], seeds: tuple[int, int],
+                     gen_path: Path) -> GeneratorSpec:
     """``spec`` with the seed range of the single split in ``splits`` set to ``seeds``
     [first, last); ValueError (naming the file) when that is not one split, or the range is
     empty or overlaps another split's."""
-    from tools.scene_gen import SplitSpec, split_seeds
+    from tools.scene_gen import SplitSpec, overlapping_split, split_seeds
 
     if len(splits) != 1:
         raise ValueError(f"--seeds: replaces the range of one split, give exactly one --split (got {len(splits)})")
@@ -469,11 +474,12 @@ def with_split_seeds(spec, splits: Sequence[str], seeds: tuple[int, int], gen_pa
     lo, hi = seeds
     if not 0 <= lo < hi:
         raise ValueError(f"--seeds: expected FIRST LAST with 0 <= FIRST < LAST, got {lo} {hi}")
-    for other, s in spec.splits.items():
-        if other != sp and lo < s.seeds[1] and s.seeds[0] < hi:
-            raise ValueError(f"--seeds: [{lo}, {hi}) overlaps split {other!r} [{s.seeds[0]}, {s.seeds[1]}) "
-                             f"of {gen_path}")
-    return spec.model_copy(update={"splits": {**spec.splits, sp: SplitSpec(seeds=(lo, hi))}})
+    ranges = {**spec.splits, sp: SplitSpec(seeds=(lo, hi))}
+    other = overlapping_split(ranges, sp)
+    if other is not None:
+        a, b = ranges[other].seeds
+        raise ValueError(f"--seeds: [{lo}, {hi}) overlaps split {other!r} [{a}, {b}) of {gen_path}")
+    return spec.model_copy(update={"splits": ranges})
 
 
 def load_sources(source: Path) -> list[Scenario]:

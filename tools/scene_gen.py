@@ -98,6 +98,21 @@ class GeneratorSpec(_Strict):
     weather: WeatherRandom = Field(default_factory=WeatherRandom)
     actors: ActorRandom = Field(default_factory=ActorRandom)
 
+    @field_validator("splits")
+    @classmethod
+    def _disjoint(cls, v: dict[str, SplitSpec]) -> dict[str, SplitSpec]:
+        for name, split in v.items():
+            other = overlapping_split(v, name)
+            if other is not None:
+                raise ValueError(f"split {name!r} {list(split.seeds)} overlaps split {other!r} {list(v[other].seeds)}")
+        return v
+
+
+def overlapping_split(splits: dict[str, SplitSpec], name: str) -> str | None:
+    """The first split other than ``name`` whose seed range overlaps ``name``'s, or None."""
+    lo, hi = splits[name].seeds
+    return next((o for o, s in splits.items() if o != name and lo < s.seeds[1] and s.seeds[0] < hi), None)
+
 
 WEATHER_KINDS = ("clear", "night", "fog", "rain")
 #: class -> (speed range m/s, footprint length m, width m) used for placement and motion.

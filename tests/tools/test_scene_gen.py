@@ -61,5 +61,8 @@ def test_bad_generator_file_is_one_line(tmp_path):
     bad.write_text("generator:\n  splits: {train: {seeds: [0, 2]}}\n  lanez: 3\n")
     with pytest.raises(ScenarioError, match="lanez"):
         load_generator(bad)
+    bad.write_text("generator:\n  splits: {train: {seeds: [0, 20]}, val: {seeds: [10, 30]}}\n")
+    with pytest.raises(ScenarioError, match=r"gen\.yaml: generator\.splits: split 'train' \[0, 20\] overlaps split 'val'"):
+        load_generator(bad)
     with pytest.raises(ValueError, match="--split"):
         split_seeds(load_generator(SHIPPED), "holdout")
