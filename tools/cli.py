@@ -29,11 +29,13 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from perception.detectors.onnx_detector import ModelError
     from sim.scenario import ScenarioError
     from tools.detector.train import ResumeError
+    from tools.detector.widen import ArchitectureError
     from tools.regress import BaselineError
     from tools.rundir import OutputError
     from tools.store import StoreError
 
-    return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, FileNotFoundError,
+    return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
+            FileNotFoundError,
             PermissionError, NotADirectoryError, IsADirectoryError)
 
 
@@ -450,6 +452,9 @@ def train_detector(
     init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model) or an exported .onnx model")] = None,
     crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
     resume: Annotated[bool, typer.Option("--resume", help="continue this same command's interrupted run from the state saved beside --out after each epoch")] = False,
+    widths: Annotated[tuple[int, int, int, int, int], typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32")] = (24, 32, 64, 96, 128),
+    neck: Annotated[int, typer.Option(min=1, help="neck channels (strides 8, 16)")] = 64,
+    head: Annotated[int, typer.Option(min=1, help="head channels (stride 4)")] = 32,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
     try:
@@ -465,7 +470,7 @@ def train_detector(
     if crop[0] % 32 or crop[1] % 32:
         raise typer.BadParameter(f"--crop: multiples of 32 expected, got {crop[0]} {crop[1]}")
     cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
-                      init=None if init is None else str(init), crop=crop)
+                      init=None if init is None else str(init), crop=crop, widths=widths, neck=neck, head=head)
     with _progress() as prog:
         task = prog.add_task("training", total=1.0)
         result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f), resume=resume)

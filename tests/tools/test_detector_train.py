@@ -247,3 +247,76 @@ def test_resume_without_a_state_is_one_line_and_exit_2(tiny_dataset, tmp_path):
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"), "--resume"])
     assert res.exit_code == 2
     assert "m.state.pt: no training state to resume" in res.output and "Traceback" not in res.output
+
+
+def _randomised(net):
+    """``net`` with BatchNorm statistics and affine parameters away from their defaults."""
+    g = torch.Generator().manual_seed(1)
+    with torch.no_grad():
+        for m in net.modules():
+            if isinstance(m, torch.nn.BatchNorm2d):
+                m.running_mean.copy_(torch.randn(m.num_features, generator=g) * 0.1)
+                m.running_var.copy_(torch.rand(m.num_features, generator=g) + 0.5)
+                m.weight.copy_(torch.rand(m.num_features, generator=g) + 0.5)
+                m.bias.copy_(torch.randn(m.num_features, generator=g) * 0.1)
+    return net
+
+
+def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
+    from tools.detector.train import reg_loss
+    from tools.detector.widen import widen
+
+    small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
+    wide = widen(small, CenterDet(widths=(12, 16, 32, 48, 40), neck=24, head=16))
+    assert wide.arch == {"widths": (12, 16, 32, 48, 40), "neck": 24, "head": 16}
+    x = torch.rand(2, 3, 64, 96, generator=torch.Generator().manual_seed(2))
+    for mode in ("eval", "train"):  # train mode: batch statistics, the same for the old channels
+        small.train(mode == "train")
+        wide.train(mode == "train")
+        with torch.no_grad():
+            for a, b in zip(small(x), wide(x), strict=True):
+                torch.testing.assert_close(b, a, rtol=0, atol=1e-6)
+    # the grown channels are read by nothing yet, and the first gradient reaches what reads them
+    assert torch.count_nonzero(wide.heat.weight[:, 8:]) == 0
+    heat, reg = wide(x)
+    loss = focal_loss(heat, torch.zeros_like(heat), torch.ones_like(heat)) + reg_loss(
+        reg, torch.zeros(2, 1, dtype=torch.long), torch.zeros(2, 1, 4), torch.ones(2, 1))
+    loss.backward()
+    assert float(wide.heat.weight.grad[:, 8:].abs().sum()) > 0
+    assert float(wide.f4[0].weight.grad[8:].abs().sum()) == 0  # rows feeding only zero columns: not yet
+
+
+def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(tmp_path):
+    from tools.detector.from_onnx import exported_architecture
+    from tools.detector.train import export_onnx
+    from tools.detector.widen import ArchitectureError, architecture, widen
+
+    assert exported_architecture(ROOT / "models" / "lookahead-det.onnx") == CenterDet().arch
+    arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8}
+    net = CenterDet(**arch)
+    assert architecture({k: tuple(v.shape) for k, v in net.state_dict().items()}) == arch
+    assert exported_architecture(export_onnx(net, tmp_path / "small.onnx", {}, input_hw=(64, 96))) == arch
+    with pytest.raises(ArchitectureError, match="grown, not shrunk"):
+        widen(CenterDet(), net)
+    with pytest.raises(ArchitectureError, match="no parameter 's2.0.weight'"):
+        architecture({"conv.weight": (8, 3, 3, 3)})
+
+
+def test_a_wider_network_fine_tunes_from_a_narrower_model_and_exports(tiny_dataset, tmp_path):
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+    from tools.detector.from_onnx import exported_architecture
+
+    small = tmp_path / "small.onnx"
+    cfg = dict(epochs=1, batch=2, warmup_steps=1, eval_every=0, widths=(8, 16, 24, 32, 40), neck=16, head=8)
+    train(tiny_dataset, small, TrainConfig(**cfg))
+    grown = tmp_path / "grown.onnx"
+    train(tiny_dataset, grown, TrainConfig(**{**cfg, "neck": 24, "head": 16, "init": str(small)}))
+    assert exported_architecture(grown) == {"widths": (8, 16, 24, 32, 40), "neck": 24, "head": 16}
+    assert OnnxDetector(grown).detect(np.zeros((360, 640, 3), np.uint8)).xyxy.shape[1] == 4
+    res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
+                                   "--init", str(grown), "--widths", "8", "16", "24", "32", "40",
+                                   "--neck", "16", "--head", "8", "--epochs", "1"])
+    assert res.exit_code == 2 and "Traceback" not in res.output
+    assert "grown, not shrunk" in res.output and "grown.onnx" in res.output

@@ -38,6 +38,9 @@ def _onnx_convs(path: Path) -> list[tuple]:
     except Exception as e:  # protobuf decode errors, missing file
         raise ExportedModelError(f"{path}: cannot read the ONNX model ({e})") from None
     init = {t.name: numpy_helper.to_array(t) for t in model.graph.initializer}
+    for node in model.graph.node:  # the exporter shares equal constants through Identity nodes
+        if node.op_type == "Identity" and node.input[0] in init:
+            init[node.output[0]] = init[node.input[0]]
     convs = []
     for node in model.graph.node:
         if node.op_type != "Conv":
@@ -70,6 +73,29 @@ def _convs_in_call_order(net) -> list:
     for m in order:
         seen.setdefault(id(m), m)
     return list(seen.values())
+
+
+def exported_architecture(path: str | Path) -> dict:
+    """``CenterDet`` keyword arguments (widths, neck, head) of the network exported to ``path``.
+
+    The file's convolutions, in execution order, are named after the modules a
+    ``CenterDet`` calls in that order (the order does not depend on the widths).
+    """
+    from tools.detector.model import CenterDet
+    from tools.detector.widen import ArchitectureError, architecture
+
+    path = Path(path)
+    exported = _onnx_convs(path)
+    ref = CenterDet()
+    names = {id(m): n for n, m in ref.named_modules()}
+    order = [names[id(m)] for m in _convs_in_call_order(ref)]
+    if len(exported) != len(order):
+        raise ExportedModelError(f"{path}: {len(exported)} convolutions, a CenterDet has {len(order)}")
+    shapes = {f"{n}.weight": tuple(w.shape) for n, (w, _) in zip(order, exported, strict=True)}
+    try:
+        return architecture(shapes)
+    except ArchitectureError as e:
+        raise ExportedModelError(f"{path}: {e}") from None
 
 
 def _batchnorm_after(net) -> dict[int, object]:

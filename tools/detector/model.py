@@ -47,6 +47,7 @@ class CenterDet(nn.Module):
         super().__init__()
         w2, w4, w8, w16, w32 = widths
         self.num_classes = num_classes
+        self.arch = {"widths": tuple(widths), "neck": neck, "head": head}
         self.s2 = conv(3, w2, 2)
         self.s4 = nn.Sequential(conv(w2, w4, 2), conv(w4, w4))
         self.s8 = nn.Sequential(conv(w4, w8, 2), Residual(w8))

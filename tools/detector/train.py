@@ -57,6 +57,14 @@ class TrainConfig:
     eval_every: int = 4  # epochs; 0 = only at the end
     limit: int | None = None  # use only the first N training images (smoke tests)
     init: str | None = None  # start from this checkpoint (state dict .pt, or an exported .onnx) instead of random
+    # the network (``model.CenterDet``): channels at strides 2..32, neck, head; an ``init`` of
+    # smaller widths is grown into these (``widen``: the same function to start with)
+    widths: tuple[int, ...] = (24, 32, 64, 96, 128)
+    neck: int = 64
+    head: int = 32
+
+    def architecture(self) -> dict:
+        return {"widths": tuple(self.widths), "neck": self.neck, "head": self.head}
 
 
 def focal_loss(logits, heat, mask):
@@ -160,7 +168,7 @@ def state_path(out: Path) -> Path:
 
 def _run_identity(cfg: TrainConfig, data_dir: Path) -> dict:
     """What a saved state must share with the run resuming it: the data and every option."""
-    return {"data": str(Path(data_dir).resolve()), **asdict(cfg), "crop": list(cfg.crop)}
+    return {"data": str(Path(data_dir).resolve()), **asdict(cfg), "crop": list(cfg.crop), "widths": list(cfg.widths)}
 
 
 def _load_state(path: Path, cfg: TrainConfig, data_dir: Path) -> dict:
@@ -186,6 +194,36 @@ def _save_state(path: Path, state: dict) -> None:
     tmp.replace(path)  # a crash while writing leaves the previous epoch's state
 
 
+def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
+    """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower."""
+    import torch
+
+    from tools.detector.model import CenterDet
+    from tools.detector.widen import ArchitectureError, architecture, widen
+
+    if init.suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
+        from tools.detector.from_onnx import exported_architecture, load_exported
+
+        src = CenterDet(len(CLASSES), **exported_architecture(init))
+        calib_rng = np.random.default_rng([cfg.seed, 2])
+        calib = (torch.from_numpy(sampler.batch(calib_rng.choice(n_images, cfg.batch))[0])
+                 .float().div_(255.0) for _ in range(CALIBRATION_BATCHES))
+        load_exported(src, init, calib)
+    else:
+        weights = torch.load(init, map_location="cpu", weights_only=True)
+        try:
+            src = CenterDet(len(CLASSES), **architecture({k: tuple(v.shape) for k, v in weights.items()}))
+        except ArchitectureError as e:
+            raise ArchitectureError(f"{init}: {e}") from None
+        src.load_state_dict(weights)
+    if src.arch != net.arch:
+        log.info("%s: grown from %s to %s", init, src.arch, net.arch)
+    try:
+        return widen(src, net)
+    except ArchitectureError as e:
+        raise ArchitectureError(f"--init {init}: {e}") from None
+
+
 def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bool = False) -> dict:
     """Train on ``data_dir/train`` (validating on ``data_dir/val`` when present); write ``out`` (ONNX).
 
@@ -208,17 +246,10 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
     train_split = load_split(Path(data_dir) / "train", cfg.limit)
     val_dir = Path(data_dir) / "val"
     sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed)
-    net = CenterDet(len(CLASSES))
     init = None if state is not None else cfg.init  # a resumed run takes its weights from the state
-    if init and Path(init).suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
-        from tools.detector.from_onnx import load_exported
-
-        calib_rng = np.random.default_rng([cfg.seed, 2])
-        calib = (torch.from_numpy(sampler.batch(calib_rng.choice(len(train_split.images), cfg.batch))[0])
-                 .float().div_(255.0) for _ in range(CALIBRATION_BATCHES))
-        load_exported(net, init, calib)
-    elif init:
-        net.load_state_dict(torch.load(init, map_location="cpu", weights_only=True))
+    net = CenterDet(len(CLASSES), **cfg.architecture())
+    if init:
+        net = _initial_network(net, Path(init), cfg, sampler, len(train_split.images))
     net = net.to(memory_format=torch.channels_last)
     checkpoint = Path(out).with_suffix(".pt")  # weights after every epoch (to resume or fine-tune)
     decay = [p for n, p in net.named_parameters() if p.ndim > 1]
