@@ -28,8 +28,8 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that mean the user's input or environment is wrong (not a bug)."""
     from perception.detectors.onnx_detector import ModelError
     from sim.scenario import ScenarioError
+    from tools.detector.arch import ArchitectureError
     from tools.detector.train import ResumeError
-    from tools.detector.widen import ArchitectureError
     from tools.regress import BaselineError
     from tools.rundir import OutputError
     from tools.store import StoreError
@@ -452,9 +452,9 @@ def train_detector(
     init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model) or an exported .onnx model")] = None,
     crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
     resume: Annotated[bool, typer.Option("--resume", help="continue this same command's interrupted run from the state saved beside --out after each epoch")] = False,
-    widths: Annotated[tuple[int, int, int, int, int], typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32")] = (24, 32, 64, 96, 128),
-    neck: Annotated[int, typer.Option(min=1, help="neck channels (strides 8, 16)")] = 64,
-    head: Annotated[int, typer.Option(min=1, help="head channels (stride 4)")] = 32,
+    widths: Annotated[tuple[int, int, int, int, int] | None, typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32 (default: the shipped model's)")] = None,
+    neck: Annotated[int | None, typer.Option(min=1, help="neck channels, strides 8 and 16 (default: the shipped model's)")] = None,
+    head: Annotated[int | None, typer.Option(min=1, help="head channels, stride 4 (default: the shipped model's)")] = None,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
     try:
@@ -469,8 +469,9 @@ def train_detector(
         raise FileNotFoundError(f"{init}: no such checkpoint")
     if crop[0] % 32 or crop[1] % 32:
         raise typer.BadParameter(f"--crop: multiples of 32 expected, got {crop[0]} {crop[1]}")
+    arch = {k: v for k, v in (("widths", widths), ("neck", neck), ("head", head)) if v is not None}
     cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
-                      init=None if init is None else str(init), crop=crop, widths=widths, neck=neck, head=head)
+                      init=None if init is None else str(init), crop=crop, **arch)
     with _progress() as prog:
         task = prog.add_task("training", total=1.0)
         result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f), resume=resume)

@@ -263,8 +263,8 @@ def _randomised(net):
 
 
 def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
+    from tools.detector.arch import widen
     from tools.detector.train import reg_loss
-    from tools.detector.widen import widen
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
     wide = widen(small, CenterDet(widths=(12, 16, 32, 48, 40), neck=24, head=16))
@@ -287,9 +287,9 @@ def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
 
 
 def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(tmp_path):
+    from tools.detector.arch import ArchitectureError, architecture, widen
     from tools.detector.from_onnx import exported_architecture
     from tools.detector.train import export_onnx
-    from tools.detector.widen import ArchitectureError, architecture, widen
 
     assert exported_architecture(ROOT / "models" / "lookahead-det.onnx") == CenterDet().arch
     arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8}

@@ -81,8 +81,8 @@ def exported_architecture(path: str | Path) -> dict:
     The file's convolutions, in execution order, are named after the modules a
     ``CenterDet`` calls in that order (the order does not depend on the widths).
     """
+    from tools.detector.arch import ArchitectureError, architecture
     from tools.detector.model import CenterDet
-    from tools.detector.widen import ArchitectureError, architecture
 
     path = Path(path)
     exported = _onnx_convs(path)

@@ -21,6 +21,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from tools.detector.arch import HEAD, NECK, WIDTHS
+
 STRIDE = 4
 
 
@@ -42,8 +44,8 @@ class Residual(nn.Module):
 class CenterDet(nn.Module):
     """Backbone + neck + head (module docstring); ``widths`` = channels at strides 2, 4, 8, 16, 32."""
 
-    def __init__(self, num_classes: int = 8, widths: tuple[int, ...] = (24, 32, 64, 96, 128), neck: int = 64,
-                 head: int = 32) -> None:
+    def __init__(self, num_classes: int = 8, widths: tuple[int, ...] = WIDTHS, neck: int = NECK,
+                 head: int = HEAD) -> None:
         super().__init__()
         w2, w4, w8, w16, w32 = widths
         self.num_classes = num_classes

@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from perception.detections import CLASSES
+from tools.detector.arch import HEAD, NECK, WIDTHS
 
 log = logging.getLogger(__name__)
 
@@ -59,9 +60,9 @@ class TrainConfig:
     init: str | None = None  # start from this checkpoint (state dict .pt, or an exported .onnx) instead of random
     # the network (``model.CenterDet``): channels at strides 2..32, neck, head; an ``init`` of
     # smaller widths is grown into these (``widen``: the same function to start with)
-    widths: tuple[int, ...] = (24, 32, 64, 96, 128)
-    neck: int = 64
-    head: int = 32
+    widths: tuple[int, ...] = WIDTHS
+    neck: int = NECK
+    head: int = HEAD
 
     def architecture(self) -> dict:
         return {"widths": tuple(self.widths), "neck": self.neck, "head": self.head}
@@ -198,8 +199,8 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
     """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower."""
     import torch
 
+    from tools.detector.arch import ArchitectureError, architecture, widen
     from tools.detector.model import CenterDet
-    from tools.detector.widen import ArchitectureError, architecture, widen
 
     if init.suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
         from tools.detector.from_onnx import exported_architecture, load_exported

@@ -1,6 +1,10 @@
-"""Grow a trained ``CenterDet`` into a wider one that computes the same function.
+"""``CenterDet``'s architecture: its default widths, reading them back from weights, growing.
 
-``widen(src, dst)`` copies every parameter and BatchNorm statistic of ``src`` into the
+``WIDTHS``, ``NECK``, ``HEAD``: the channels of the shipped model's network, the
+defaults of ``CenterDet`` and of ``lookahead train-detector``.
+
+``widen(src, dst)`` grows a trained ``CenterDet`` into a wider one that computes the
+same function: it copies every parameter and BatchNorm statistic of ``src`` into the
 matching leading block of ``dst`` (a ``CenterDet`` with at least as many channels
 everywhere). For each convolution weight (out, in, k, k):
 
@@ -24,8 +28,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # torch is the extra `train`; this module imports without it (its error class)
+if TYPE_CHECKING:  # torch is the extra `train`; this module imports without it (constants, error class)
     from tools.detector.model import CenterDet
+
+
+WIDTHS: tuple[int, int, int, int, int] = (24, 32, 64, 96, 128)  # backbone, strides 2, 4, 8, 16, 32
+NECK = 64  # strides 8, 16
+HEAD = 32  # stride 4
 
 
 class ArchitectureError(ValueError):
