@@ -35,8 +35,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from tools.store import StoreError
 
     return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
-            FileNotFoundError,
-            PermissionError, NotADirectoryError, IsADirectoryError)
+            FileNotFoundError, PermissionError, NotADirectoryError, IsADirectoryError)
 
 
 def user_errors(fn):
