@@ -63,7 +63,7 @@ def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detect
 
         if not render:
             raise ScenarioError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
-        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou)
+        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows)
     from perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
 
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)

@@ -35,6 +35,7 @@ from intent.config import IntentConfig
 from intent.labels import Risk
 from perception.detections import CLASSES
 from perception.detectors.gt_detector import GtNoiseConfig
+from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
 from perception.estimator import EstimatorConfig
 from perception.preprocess import PreprocessConfig
 from perception.tracker import TrackerConfig
@@ -335,7 +336,18 @@ class DetectorSpec(Strict):
     model: str | None = Field(None, description="onnx model file; default models/lookahead-det.onnx")
     conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score")
     iou: float = Field(0.45, gt=0.0, le=1.0, description="onnx: per-class NMS IoU threshold")
+    windows: list[tuple[float, float, float, float]] = Field(
+        default_factory=lambda: list(DEFAULT_WINDOWS),
+        description="onnx: zoom windows x0, y0, x1, y1 (fractions of the image) the model also runs on, "
+        "magnified; their detections replace the whole frame's inside them (perception.detectors.windows). "
+        "Default: the middle half around the horizon (2x at 640 x 360); [] for the whole frame only",
+    )
     noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")
+
+    @field_validator("windows", mode="after")
+    @classmethod
+    def _windows(cls, v: list[tuple[float, float, float, float]]) -> list[tuple[float, float, float, float]]:
+        return list(check_windows(v))  # ValueError: which window, what was expected
 
 
 class PerceptionSpec(Strict):

@@ -1,11 +1,14 @@
 """``lookahead bench detect``: the ONNX detector end to end vs its bare ``session.run``.
 
-Rendered 640 x 360 frames of a scenario go through ``OnnxDetector.detect``
-(letterbox, inference, decode, per-class NMS) and, interleaved frame by frame in
-the same process, through ``session.run`` alone on the already-letterboxed
-tensor. Ratio ``pipeline_over_session_run`` = median pipeline ms / median
-``session.run`` ms; ``fps`` = 1000 / median pipeline ms. The cases
-``preprocess`` and ``postprocess`` are the pipeline's own stage timings.
+Rendered 640 x 360 frames of a scenario go through ``OnnxDetector.detect`` as the
+scenarios run it, with the default zoom windows (``perception.detectors.windows``:
+letterbox, inference, decode and per-class NMS of the whole frame and of each window,
+then the merge) and, interleaved frame by frame in the same process, through
+``session.run`` alone on the same already-letterboxed tensors (one per view). Ratio
+``pipeline_over_session_run`` = median pipeline ms / median summed ``session.run`` ms;
+``fps`` = 1000 / median pipeline ms. The cases ``preprocess`` and ``postprocess`` are
+the pipeline's own stage timings; ``whole_frame`` is the same detector without windows
+(``fps_whole_frame``, and ``windows_over_whole_frame``: what the windows cost).
 """
 
 from __future__ import annotations
@@ -15,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from perception.detectors.windows import DEFAULT_WINDOWS
 from sim.runner import DEFAULT_MODEL, Runner
 from sim.scenario import DetectorSpec, load_scenario
 from tools.bench import case, machine
@@ -37,14 +41,17 @@ def render_frames(scenario_path: Path, n: int) -> list[np.ndarray]:
 
 
 def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None, frames: int = 30,
-                 repeats: int = 3) -> dict:
+                 repeats: int = 3, windows=DEFAULT_WINDOWS) -> dict:
     from perception.detectors.onnx_detector import OnnxDetector
 
     root = Path(__file__).resolve().parents[1]
     images = render_frames(scenario_path or root / "scenarios" / "urban_mix.yaml", frames)
-    det = OnnxDetector(model)
+    det = OnnxDetector(model, windows=windows)
+    whole = OnnxDetector(model)
     det.warmup(3)
-    samples: dict[str, list[float]] = {"pipeline": [], "session_run": [], "preprocess": [], "postprocess": []}
+    whole.warmup(3)
+    samples: dict[str, list[float]] = {"pipeline": [], "session_run": [], "preprocess": [], "postprocess": [],
+                                       "whole_frame": []}
     n_dets = []
     for _ in range(repeats):
         for img in images:
@@ -53,20 +60,28 @@ def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None,
             samples["pipeline"].append((time.perf_counter() - t0) * 1e3)
             samples["preprocess"].append(det.last_timing_ms["preprocess"])
             samples["postprocess"].append(det.last_timing_ms["postprocess"])
-            tensor, _, _ = det.preprocess(img)
+            tensors = [det.preprocess(crop)[0] for crop, _, _ in det.views(img)]
             t0 = time.perf_counter()
-            det.infer(tensor)
+            for tensor in tensors:
+                det.infer(tensor)
             samples["session_run"].append((time.perf_counter() - t0) * 1e3)
+            t0 = time.perf_counter()
+            whole.detect(img)
+            samples["whole_frame"].append((time.perf_counter() - t0) * 1e3)
             n_dets.append(len(d))
     cases = {k: case(v) for k, v in samples.items()}
-    ratio = cases["pipeline"]["ms_median"] / cases["session_run"]["ms_median"]
+    ms = {k: c["ms_median"] for k, c in cases.items()}
     return {
         "machine": machine(),
         "model": str(model),
         "image": [int(images[0].shape[1]), int(images[0].shape[0])],
+        "windows": [list(w) for w in det.windows],
+        "views": len(det.views(images[0])),
         "providers": det.session.get_providers(),
         "cases": cases,
-        "ratios": {"pipeline_over_session_run": round(ratio, 4)},
-        "fps": round(1000.0 / cases["pipeline"]["ms_median"], 2),
+        "ratios": {"pipeline_over_session_run": round(ms["pipeline"] / ms["session_run"], 4),
+                   "windows_over_whole_frame": round(ms["pipeline"] / ms["whole_frame"], 4)},
+        "fps": round(1000.0 / ms["pipeline"], 2),
+        "fps_whole_frame": round(1000.0 / ms["whole_frame"], 2),
         "detections_per_frame": round(float(np.mean(n_dets)), 2),
     }

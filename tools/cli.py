@@ -450,6 +450,7 @@ def train_detector(
     log_file: Annotated[Path | None, typer.Option("--log", help="write the training log (JSON) here")] = None,
     init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model) or an exported .onnx model")] = None,
     crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
+    scale: Annotated[tuple[float, float], typer.Option(min=0.1, help="rescale training frames by a log-uniform factor in LO HI (2 covers a 2x zoom window at run time)")] = (0.8, 1.25),
     resume: Annotated[bool, typer.Option("--resume", help="continue this same command's interrupted run from the state saved beside --out after each epoch")] = False,
     widths: Annotated[tuple[int, int, int, int, int] | None, typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32 (default: the shipped model's)")] = None,
     neck: Annotated[int | None, typer.Option(min=1, help="neck channels, strides 8 and 16 (default: the shipped model's)")] = None,
@@ -468,9 +469,11 @@ def train_detector(
         raise FileNotFoundError(f"{init}: no such checkpoint")
     if crop[0] % 32 or crop[1] % 32:
         raise typer.BadParameter(f"--crop: multiples of 32 expected, got {crop[0]} {crop[1]}")
+    if scale[0] > scale[1]:
+        raise typer.BadParameter(f"--scale: LO <= HI expected, got {scale[0]} {scale[1]}")
     arch = {k: v for k, v in (("widths", widths), ("neck", neck), ("head", head)) if v is not None}
     cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
-                      init=None if init is None else str(init), crop=crop, **arch)
+                      init=None if init is None else str(init), crop=crop, scale=scale, **arch)
     with _progress() as prog:
         task = prog.add_task("training", total=1.0)
         result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f), resume=resume)
@@ -493,15 +496,26 @@ def eval_detector(
     min_box: Annotated[float, typer.Option(
         "--min-box", min=0.0, help="grow boxes smaller than this (px) before IoU, as all scoring does; 0: plain IoU"
     )] = 8.0,
+    windows: Annotated[str | None, typer.Option(
+        help="zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image, as a scenario's "
+        "perception.detector.windows; default: the scenarios' default; '[]': the whole frame only"
+    )] = None,
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
     """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
+    import yaml
+
+    from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
     from tools.detector.evaluate import evaluate_model
+
+    try:
+        zoom = DEFAULT_WINDOWS if windows is None else check_windows(yaml.safe_load(windows) or [])
+    except (TypeError, ValueError, yaml.YAMLError) as e:
+        console.print(f"[bold red]error:[/] --windows: {e}", markup=True, highlight=False)
+        raise typer.Exit(2) from None
 
     chain = None
     if preprocess is not None:
-        import yaml
-
         from perception.preprocess import PreprocessChain
 
         try:
@@ -509,7 +523,7 @@ def eval_detector(
         except (ValueError, yaml.YAMLError) as e:
             console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False)
             raise typer.Exit(2) from None
-    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box)
+    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom)
                for sp in splits}
     print(f"{'split':32s} {'AP50':>6s} {'pooled':>6s} {'R@P95':>6s} {'P':>6s} {'R':>6s}  per-class AP50")
     for sp, m in results.items():
@@ -581,7 +595,8 @@ def bench_detect(
 
     result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats)
     save_bench(result, out)
-    console.print(f"detector: {result['fps']:.1f} frames/s on {result['providers'][0]}", highlight=False)
+    console.print(f"detector: {result['fps']:.1f} frames/s with {result['views'] - 1} zoom window(s), "
+                  f"{result['fps_whole_frame']:.1f} on the whole frame only, on {result['providers'][0]}", highlight=False)
 
 
 @bench_app.command("sinks")

@@ -7,7 +7,10 @@ Output layouts (detected from the output shape and the number of class names):
 - YOLOv8/11-style ``[1, 4+C, N]``: cx, cy, w, h, C class scores; score = best class score.
 
 Boxes are in letterboxed input pixels; they are mapped back to the original
-image, clipped, and filtered with per-class NMS. Class names come from the
+image, clipped, and filtered with per-class NMS. With zoom ``windows``
+(``perception.detectors.windows``) the model also runs on each window's crop,
+magnified into its input, and the window's detections replace the whole frame's
+inside it. Class names come from the
 ``names`` argument (list, dict or names file), else the model's ``names``
 metadata (Ultralytics dict string), else a ``<model>.names`` file beside the
 model. When any name matches one of our ``CLASSES`` (directly or via
@@ -30,6 +33,7 @@ import yaml
 
 from perception.detections import CLASS_ID, Detections
 from perception.detectors.base import DetectorTruth
+from perception.detectors.windows import check_windows, merge_windows, window_pixels
 from perception.geometry import clip_boxes
 from perception.letterbox import letterbox, unletterbox_boxes
 from perception.nms import nms
@@ -151,6 +155,8 @@ class OnnxDetector:
         input_size: (px) side or (height, width) used only when the model's input is dynamic; default 640.
         names: class names (list, {index: name} dict, or a names file path); overrides the metadata.
         providers: onnxruntime providers; default TensorRT/CUDA when available, else CPU.
+        windows: zoom windows (x0, y0, x1, y1 as fractions of the image) run as well, magnified
+            (``perception.detectors.windows``); empty: the whole frame only.
 
     Attributes:
         session: the ``onnxruntime.InferenceSession`` (time ``session.run`` alone via ``infer``).
@@ -158,7 +164,8 @@ class OnnxDetector:
         class_map: (C,) model class index -> our class id (-1 unknown), or None for raw indices.
         layout: ``"v5"`` or ``"v8"`` once known (static output shape: at load).
         dropped_unknown: detections dropped so far for an unknown class name.
-        last_timing_ms: preprocess / infer / postprocess times of the last ``detect``.
+        last_timing_ms: preprocess / infer / postprocess times of the last ``detect``, summed
+            over its views (the whole frame and each window), and ``views``, their number.
     """
 
     def __init__(
@@ -170,6 +177,7 @@ class OnnxDetector:
         input_size: int | tuple[int, int] | None = None,
         names: Sequence[str] | Mapping[int, str] | str | Path | None = None,
         providers: Sequence[str] | None = None,
+        windows: Sequence[Sequence[float]] = (),
     ) -> None:
         import onnxruntime as ort  # heavy; imported only when a model is loaded
 
@@ -181,6 +189,10 @@ class OnnxDetector:
         self.max_det = int(max_det)
         self.dropped_unknown = 0
         self.last_timing_ms: dict[str, float] = {}
+        try:
+            self.windows = check_windows(windows)
+        except ValueError as e:
+            raise ModelError(f"{self._label}: {e}") from None
 
         if not self.model_path.is_file():
             raise ModelError(f"{self._label}: model file not found")
@@ -362,23 +374,42 @@ class OnnxDetector:
         xyxy = clip_boxes(xyxy, image_hw[1], image_hw[0])
         return Detections(xyxy=xyxy, score=score[idx], class_id=cls[idx])
 
+    def views(self, image: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
+        """What one ``detect`` runs the model on: the whole image, then each window's crop,
+        each with its top-left corner in the image (px)."""
+        h, w = image.shape[:2]
+        crops = [(image, 0, 0)]
+        for x0, y0, x1, y1 in window_pixels(self.windows, w, h).tolist():
+            crops.append((image[y0:y1, x0:x1], x0, y0))
+        return crops
+
     def detect(self, image: np.ndarray | None, truth: DetectorTruth | None = None) -> Detections:
         """Detections in ``image`` (RGB uint8 H x W x 3); ``truth`` is ignored."""
         if image is None:
             raise ValueError(f"{self.name}: needs an image (rendering is off?)")
-        t0 = time.perf_counter()
-        tensor, scale, pad = self.preprocess(image)
-        t1 = time.perf_counter()
-        raw = self.infer(tensor)
-        t2 = time.perf_counter()
-        dets = self.postprocess(raw, scale, pad, image.shape[:2])
-        t3 = time.perf_counter()
-        self.last_timing_ms = {
-            "preprocess": (t1 - t0) * 1e3,
-            "infer": (t2 - t1) * 1e3,
-            "postprocess": (t3 - t2) * 1e3,
-        }
-        return dets
+        timing = {"preprocess": 0.0, "infer": 0.0, "postprocess": 0.0}
+        found = []
+        for crop, x0, y0 in self.views(image):
+            t0 = time.perf_counter()
+            tensor, scale, pad = self.preprocess(crop)
+            t1 = time.perf_counter()
+            raw = self.infer(tensor)
+            t2 = time.perf_counter()
+            dets = self.postprocess(raw, scale, pad, crop.shape[:2])
+            dets.xyxy += (x0, y0, x0, y0)
+            found.append(dets)
+            t3 = time.perf_counter()
+            timing["preprocess"] += (t1 - t0) * 1e3
+            timing["infer"] += (t2 - t1) * 1e3
+            timing["postprocess"] += (t3 - t2) * 1e3
+        if len(found) > 1:
+            t0 = time.perf_counter()
+            h, w = image.shape[:2]
+            found[0] = merge_windows(found[0], found[1:], window_pixels(self.windows, w, h), w, h,
+                                     self.iou_threshold, self.max_det)
+            timing["postprocess"] += (time.perf_counter() - t0) * 1e3
+        self.last_timing_ms = {**timing, "views": float(len(found))}
+        return found[0]
 
     def warmup(self, runs: int = 1) -> None:
         """Run the session on a grey input ``runs`` times (first-run allocations, TensorRT builds)."""

@@ -130,7 +130,7 @@ def test_decode_letterbox_nms_and_class_mapping(tmp_path: Path, make_output, lay
         CLASS_ID["car"],
     ]
     assert det.dropped_unknown == 1  # the traffic light
-    assert set(det.last_timing_ms) == {"preprocess", "infer", "postprocess"}
+    assert set(det.last_timing_ms) == {"preprocess", "infer", "postprocess", "views"}
 
 
 def test_split_pipeline_matches_detect(tmp_path: Path) -> None:
@@ -242,3 +242,27 @@ def test_image_required(tmp_path: Path) -> None:
     det = OnnxDetector(make_model(tmp_path / "m.onnx", v8_output()))
     with pytest.raises(ValueError, match="needs an image"):
         det.detect(None)
+
+
+def test_a_zoom_window_runs_the_model_on_its_crop_and_its_boxes_land_in_image_pixels(tmp_path):
+    # one box at the middle of the 416 x 416 input, 26 px a side, whatever the input holds
+    out = np.zeros((1, 4 + NC, N_ANCHORS), dtype=np.float32)
+    out[0, :4, 0] = [208, 208, 26, 26]
+    out[0, 4, 0] = 0.9
+    path = make_model(tmp_path / "m.onnx", out)
+    whole = OnnxDetector(path).detect(IMAGE)
+    # whole frame: scale 0.65, pad_y 91 -> centre (320, 180), 40 px a side
+    np.testing.assert_allclose(whole.xyxy, [[300, 160, 340, 200]], atol=1e-4)
+    det = OnnxDetector(path, windows=[(0.25, 0.25, 0.75, 0.75)])
+    assert [(c.shape[:2], x, y) for c, x, y in det.views(IMAGE)] == [((360, 640), 0, 0), ((180, 320), 160, 90)]
+    dets = det.detect(IMAGE)
+    # the window's crop 160..480 x 90..270 at scale 1.3, pad_y 91 -> centre (320, 180), 20 px a side;
+    # it lies inside the window, so it replaces the whole frame's box there
+    np.testing.assert_allclose(dets.xyxy, [[310, 170, 330, 190]], atol=1e-4)
+    assert det.last_timing_ms["views"] == 2
+
+
+def test_a_bad_zoom_window_is_a_model_error_naming_it(tmp_path):
+    path = make_model(tmp_path / "m.onnx", v8_output())
+    with pytest.raises(ModelError, match=r"m.onnx: window 0: fractions of the image"):
+        OnnxDetector(path, windows=[(0.5, 0.2, 0.4, 0.9)])

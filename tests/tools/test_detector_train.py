@@ -320,3 +320,29 @@ def test_a_wider_network_fine_tunes_from_a_narrower_model_and_exports(tiny_datas
                                    "--neck", "16", "--head", "8", "--epochs", "1"])
     assert res.exit_code == 2 and "Traceback" not in res.output
     assert "grown, not shrunk" in res.output and "grown.onnx" in res.output
+
+
+def test_scale_jitter_magnifies_training_frames_as_a_zoom_window_does(tiny_dataset):
+    from tools.detector.data import TrainSampler, load_split
+
+    split = load_split(tiny_dataset / "train")
+    i = int(np.argmax([len(b) for b in split.boxes]))
+    native = TrainSampler(split, (256, 384), 8, seed=0, scale_range=(1.0, 1.0))
+    zoomed = TrainSampler(split, (256, 384), 8, seed=0, scale_range=(2.0, 2.0))
+    # the same draws, so the same object centres the crop; whole objects are twice the size
+    sizes = []
+    for s in (native, zoomed):
+        crop, tgt = s.sample(i)
+        assert crop.shape == (256, 384, 3)
+        sizes.append(np.exp(tgt.reg[tgt.valid > 0][:, 2:]).max())
+    assert sizes[1] == pytest.approx(2 * sizes[0], rel=0.05)
+
+
+def test_a_reversed_scale_range_is_one_line_and_exit_2(tiny_dataset, tmp_path):
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
+                                   "--scale", "2", "1"])
+    assert res.exit_code == 2 and "--scale: LO <= HI expected" in res.output and "Traceback" not in res.output

@@ -38,6 +38,7 @@ INPUT_HW = (384, 640)
 MIN_TRAIN_H, MIN_TRAIN_W, MIN_TRAIN_VISIBLE = 4.0, 2.0, 0.25
 MAX_OBJECTS = 96
 REG_CELLS = 4  # regression cells per object (2 x 2)
+SCALE_RANGE = (0.8, 1.25)  # default rescaling of training frames (log-uniform factor)
 
 
 class ImageFiles(Sequence):
@@ -136,7 +137,7 @@ def _photometric(img: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 def random_crop(
     img: np.ndarray, boxes: np.ndarray, crop_hw: tuple[int, int], rng: np.random.Generator,
-    scale_range: tuple[float, float] = (0.8, 1.25), weights: np.ndarray | None = None,
+    scale_range: tuple[float, float] = SCALE_RANGE, weights: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Rescale by a random factor, crop ``crop_hw`` (biased toward objects), flip half the time.
 
@@ -236,10 +237,12 @@ class TrainSampler:
     """Random training samples (crop, targets) from a ``Split``; every draw from ``rng``."""
 
     def __init__(self, split: Split, crop_hw: tuple[int, int], num_classes: int, seed: int,
-                 balance: float = 0.5) -> None:
+                 balance: float = 0.5, scale_range: tuple[float, float] = SCALE_RANGE) -> None:
         """``balance``: crops centre on an object of class c with weight freq(c) ** -balance
-        (0: every object alike; 1: every class alike), so rare, small classes get seen."""
+        (0: every object alike; 1: every class alike), so rare, small classes get seen.
+        ``scale_range``: frames are rescaled by a factor drawn log-uniformly from it."""
         self.split, self.crop_hw, self.num_classes = split, crop_hw, num_classes
+        self.scale_range = scale_range
         self.rng = np.random.default_rng(seed)
         counts = np.bincount(np.concatenate(split.classes) if split.classes else np.zeros(0, np.int64),
                              minlength=num_classes).astype(np.float64)
@@ -251,7 +254,7 @@ class TrainSampler:
         padded, scale, pad = letterbox(s.images[i], INPUT_HW)
         boxes = letterbox_boxes(s.boxes[i], scale, pad).astype(np.float32)
         w = self.class_weight[s.classes[i]] * (0.1 + 0.9 * train)  # ignored objects seldom centre a crop
-        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng, weights=w)
+        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng, self.scale_range, w)
         crop = _photometric(crop, self.rng)
         w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
         keep = (w > 0) & (h > 0)

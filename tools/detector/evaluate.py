@@ -174,12 +174,12 @@ def evaluate_split(
     return result
 
 
-def onnx_detect(model: str | Path, preprocess=None):
+def onnx_detect(model: str | Path, preprocess=None, windows=()):
     """A ``detect`` callable running ``OnnxDetector`` at ``AP_CONF`` (with an optional
-    ``perception.preprocess`` chain in front)."""
+    ``perception.preprocess`` chain in front, and zoom ``windows``)."""
     from perception.detectors.onnx_detector import OnnxDetector
 
-    det = OnnxDetector(model, conf_threshold=AP_CONF)
+    det = OnnxDetector(model, conf_threshold=AP_CONF, windows=windows)
 
     def detect(img: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         d = det.detect(img if preprocess is None else preprocess(img))
@@ -190,6 +190,9 @@ def onnx_detect(model: str | Path, preprocess=None):
 
 def evaluate_model(
     model: str | Path, split_dir: str | Path, conf: float = 0.25, preprocess=None,
-    min_size: float = MIN_MATCH_SIZE_PX,
+    min_size: float = MIN_MATCH_SIZE_PX, windows=(),
 ) -> dict:
-    return evaluate_split(load_split(split_dir), onnx_detect(model, preprocess), conf, min_size=min_size)
+    """``evaluate_split`` of an ONNX model run as at run time (``windows``: its zoom windows)."""
+    result = evaluate_split(load_split(split_dir), onnx_detect(model, preprocess, windows), conf, min_size=min_size)
+    result["windows"] = [list(w) for w in windows]
+    return result

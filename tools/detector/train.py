@@ -39,6 +39,7 @@ import numpy as np
 
 from perception.detections import CLASSES
 from tools.detector.arch import HEAD, NECK, WIDTHS
+from tools.detector.data import SCALE_RANGE
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +51,7 @@ class TrainConfig:
     epochs: int = 12
     batch: int = 16
     crop: tuple[int, int] = (256, 384)  # px (h, w), multiples of 32
+    scale: tuple[float, float] = SCALE_RANGE  # frames rescaled by a log-uniform factor in this range
     lr: float = 2e-3
     weight_decay: float = 1e-4
     warmup_steps: int = 200
@@ -169,7 +171,7 @@ def state_path(out: Path) -> Path:
 
 def _run_identity(cfg: TrainConfig, data_dir: Path) -> dict:
     """What a saved state must share with the run resuming it: the data and every option."""
-    return {"data": str(Path(data_dir).resolve()), **asdict(cfg), "crop": list(cfg.crop), "widths": list(cfg.widths)}
+    return {"data": str(Path(data_dir).resolve()), **asdict(cfg), "crop": list(cfg.crop), "scale": list(cfg.scale), "widths": list(cfg.widths)}
 
 
 def _load_state(path: Path, cfg: TrainConfig, data_dir: Path) -> dict:
@@ -246,7 +248,7 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
     torch.use_deterministic_algorithms(True, warn_only=True)
     train_split = load_split(Path(data_dir) / "train", cfg.limit)
     val_dir = Path(data_dir) / "val"
-    sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed)
+    sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed, scale_range=cfg.scale)
     init = None if state is not None else cfg.init  # a resumed run takes its weights from the state
     net = CenterDet(len(CLASSES), **cfg.architecture())
     if init:

@@ -1,0 +1,106 @@
+"""Zoom windows: a detector also run on magnified regions of the frame (SAHI-style slicing).
+
+A window is a region of the image given as fractions of its width and height,
+``(x0, y0, x1, y1)`` in [0, 1]. The detector sees it cropped and letterboxed into its
+input like a whole frame, so it is magnified by input size / window size: the default
+window, the middle half of a 640 x 360 frame around the horizon (160..480 x 80..272 px),
+reaches a 640 x 384 input at 2x. Distant objects -- a pedestrian at 40 m is 3 px wide --
+are what a detector at 640 x 360 misses most, and there they cover four times the pixels.
+
+Merging (``merge_windows``): each object is left to the one view that sees it at a good
+scale (as SNIP trains and tests each scale of an image pyramid on the objects of its
+valid range). A box is *the window's* when it is interior to the window -- each side at
+least ``EDGE_PX`` inside the window's edge, or that edge is the image's own -- and
+shorter than ``MAX_HEIGHT_FRACTION`` of the window's height: small, whole, magnified.
+Window detections that are not the window's are dropped (cut by it, or big enough for
+the whole frame); whole-frame detections that are the window's are dropped (it saw them
+magnified); per-class NMS over the rest resolves overlapping windows.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from perception.detections import Detections
+from perception.nms import nms
+
+#: The middle half of the frame's width, 53 % of its height, just below the middle (the
+#: horizon of a camera pitched 2 deg down): 160..480 x 80..272 px of a 640 x 360 frame.
+DEFAULT_WINDOWS: tuple[tuple[float, float, float, float], ...] = ((0.25, 2 / 9, 0.75, 34 / 45),)
+
+#: A box this close (px) to a window edge inside the image counts as cut by the window.
+EDGE_PX = 1.0
+
+#: Objects at least this fraction of a window's height tall are the whole frame's (48 px of the
+#: default window's 192 at 640 x 360; 96 px of the model's input once magnified).
+MAX_HEIGHT_FRACTION = 0.25
+
+#: Smallest window side (px); a smaller region holds nothing worth a detector run.
+MIN_WINDOW_PX = 8
+
+
+def check_windows(windows: Sequence[Sequence[float]]) -> tuple[tuple[float, float, float, float], ...]:
+    """``windows`` as a tuple of 4-tuples, or ``ValueError`` naming the first bad one."""
+    out = []
+    for i, w in enumerate(windows):
+        try:
+            x0, y0, x1, y1 = (float(v) for v in w)
+        except (TypeError, ValueError):
+            raise ValueError(f"window {i}: four numbers x0 y0 x1 y1 expected, got {w!r}") from None
+        if not (0.0 <= x0 < x1 <= 1.0 and 0.0 <= y0 < y1 <= 1.0):
+            raise ValueError(
+                f"window {i}: fractions of the image with 0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1 "
+                f"expected, got {list(w)}"
+            )
+        out.append((x0, y0, x1, y1))
+    return tuple(out)
+
+
+def window_pixels(windows: Sequence[Sequence[float]], width: int, height: int) -> np.ndarray:
+    """(K, 4) int windows x0, y0, x1, y1 in pixels of a ``width`` x ``height`` image (rounded,
+    at least ``MIN_WINDOW_PX`` a side; windows too small for that are left out)."""
+    if not len(windows):
+        return np.zeros((0, 4), dtype=np.int64)
+    px = np.rint(np.asarray(windows, dtype=np.float64) * [width, height, width, height]).astype(np.int64)
+    keep = (px[:, 2] - px[:, 0] >= MIN_WINDOW_PX) & (px[:, 3] - px[:, 1] >= MIN_WINDOW_PX)
+    return px[keep]
+
+
+def interior(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(N,) mask of boxes (image px) interior to ``window`` (px; module docstring)."""
+    x0, y0, x1, y1 = (float(v) for v in window)
+    lo_x = -np.inf if x0 <= 0 else x0 + EDGE_PX
+    lo_y = -np.inf if y0 <= 0 else y0 + EDGE_PX
+    hi_x = np.inf if x1 >= width else x1 - EDGE_PX
+    hi_y = np.inf if y1 >= height else y1 - EDGE_PX
+    b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    return (b[:, 0] >= lo_x) & (b[:, 1] >= lo_y) & (b[:, 2] <= hi_x) & (b[:, 3] <= hi_y)
+
+
+def windows_own(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(N,) mask of boxes (image px) that are ``window``'s to detect: interior to it and
+    shorter than ``MAX_HEIGHT_FRACTION`` of its height (module docstring)."""
+    b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    small = b[:, 3] - b[:, 1] < MAX_HEIGHT_FRACTION * float(window[3] - window[1])
+    return small & interior(b, window, width, height)
+
+
+def merge_windows(
+    frame: Detections, views: Sequence[Detections], windows_px: np.ndarray, width: int, height: int,
+    iou_threshold: float, max_det: int,
+) -> Detections:
+    """Whole-frame detections and one ``Detections`` per window (all in image px) -> one set
+    (module docstring), highest score first."""
+    keep_frame = np.ones(len(frame), dtype=bool)
+    parts = []
+    for dets, win in zip(views, windows_px, strict=True):
+        keep_frame &= ~windows_own(frame.xyxy, win, width, height)
+        parts.append(dets[windows_own(dets.xyxy, win, width, height)])
+    parts.insert(0, frame[keep_frame])
+    xyxy = np.concatenate([p.xyxy for p in parts])
+    score = np.concatenate([p.score for p in parts])
+    cls = np.concatenate([p.class_id for p in parts])
+    idx = nms(xyxy, score, cls, iou_threshold, max_det)
+    return Detections(xyxy=xyxy[idx], score=score[idx], class_id=cls[idx])
