@@ -54,6 +54,21 @@ def user_errors(fn):
     return wrapper
 
 
+def yaml_option(name: str, text: str):
+    """An option's YAML value; malformed YAML is one line naming the option and column, exit 2."""
+    import yaml
+
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        where = f" (column {mark.column + 1})" if mark is not None else ""
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        console.print(f"[bold red]error:[/] {name}: malformed YAML: {problem}{where}", markup=True, highlight=False,
+                      soft_wrap=True)
+        raise typer.Exit(2) from None
+
+
 def save_bench(result: dict, out: Path) -> None:
     """Write a benchmark's JSON to ``out`` and print its table and ratios."""
     from tools.bench import print_bench
@@ -503,15 +518,13 @@ def eval_detector(
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
     """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
-    import yaml
-
     from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
     from tools.detector.evaluate import evaluate_model
 
     try:
-        zoom = DEFAULT_WINDOWS if windows is None else check_windows(yaml.safe_load(windows) or [])
-    except (TypeError, ValueError, yaml.YAMLError) as e:
-        console.print(f"[bold red]error:[/] --windows: {e}", markup=True, highlight=False)
+        zoom = DEFAULT_WINDOWS if windows is None else check_windows(yaml_option("--windows", windows) or [])
+    except (TypeError, ValueError) as e:
+        console.print(f"[bold red]error:[/] --windows: {e}", markup=True, highlight=False, soft_wrap=True)
         raise typer.Exit(2) from None
 
     chain = None
@@ -519,12 +532,14 @@ def eval_detector(
         from perception.preprocess import PreprocessChain
 
         try:
-            chain = PreprocessChain(yaml.safe_load(preprocess))
-        except (ValueError, yaml.YAMLError) as e:
-            console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False)
+            chain = PreprocessChain(yaml_option("--preprocess", preprocess))
+        except ValueError as e:
+            console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False, soft_wrap=True)
             raise typer.Exit(2) from None
     results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom)
                for sp in splits}
+    shown = "; ".join(" ".join(f"{v:.3g}" for v in w) for w in zoom) or "none, the whole frame only"
+    print(f"zoom windows (x0 y0 x1 y1): {shown}")
     print(f"{'split':32s} {'AP50':>6s} {'pooled':>6s} {'R@P95':>6s} {'P':>6s} {'R':>6s}  per-class AP50")
     for sp, m in results.items():
         pc = " ".join(f"{k[:4]}={v['ap50']:.2f}" for k, v in m["per_class"].items())

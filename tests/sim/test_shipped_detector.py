@@ -34,7 +34,7 @@ def frames_of(name: str, seconds: tuple[float, ...]):
 @pytest.fixture(scope="module")
 def detector() -> OnnxDetector:
     assert DEFAULT_MODEL.is_file(), f"{DEFAULT_MODEL} is missing (see models/MODEL_CARD.md)"
-    return OnnxDetector(DEFAULT_MODEL)
+    return OnnxDetector(DEFAULT_MODEL, windows=DetectorSpec().windows)  # as the scenarios run it
 
 
 SCENES = ["ped_crossing_nearside", "cyclist_crossing", "dog_entering", "urban_mix"]

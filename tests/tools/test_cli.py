@@ -161,3 +161,15 @@ def test_validate_prints_one_line_per_file_and_exits_2(tmp_path, body, needle):
     assert len(lines) == 2 and "Traceback" not in res.output, res.output
     assert lines[0].startswith("ok ") and lines[1].startswith("bad ")
     assert f"{bad}{needle}" in lines[1], lines[1]
+
+
+@pytest.mark.parametrize(("windows", "needle"), [
+    ("[[0.6, 0.2, 0.4, 0.8]]", "--windows: window 0: fractions of the image"),
+    ("[[0.1, 0.2]]", "--windows: window 0: four numbers"),
+    ("[[0.1, 0.2", "--windows: malformed YAML: expected ',' or ']', but got '<stream end>' (column 11)"),
+])
+def test_eval_detector_refuses_a_bad_zoom_window_on_one_line(tmp_path, windows, needle):
+    res = runner.invoke(app, ["eval-detector", str(tmp_path / "m.onnx"), str(tmp_path), "--windows", windows])
+    assert res.exit_code == 2, res.output
+    assert needle in res.output and "Traceback" not in res.output
+    assert len(res.output.strip().splitlines()) == 1
