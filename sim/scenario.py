@@ -339,7 +339,7 @@ class DetectorSpec(Strict):
     windows: list[tuple[float, float, float, float]] = Field(
         default_factory=lambda: list(DEFAULT_WINDOWS),
         description="onnx: zoom windows x0, y0, x1, y1 (fractions of the image) the model also runs on, "
-        "magnified; their detections replace the whole frame's inside them (perception.detectors.windows). "
+        "magnified; small objects whole inside a window are its to detect (perception.detectors.windows). "
         "Default: the middle half around the horizon (2x at 640 x 360); [] for the whole frame only",
     )
     noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")

@@ -14,6 +14,7 @@ the pipeline's own stage timings; ``whole_frame`` is the same detector without w
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ def render_frames(scenario_path: Path, n: int) -> list[np.ndarray]:
 
 
 def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None, frames: int = 30,
-                 repeats: int = 3, windows=DEFAULT_WINDOWS) -> dict:
+                 repeats: int = 3, windows: Sequence[Sequence[float]] = DEFAULT_WINDOWS) -> dict:
     from perception.detectors.onnx_detector import OnnxDetector
 
     root = Path(__file__).resolve().parents[1]

@@ -30,7 +30,7 @@ figures keep those with score > ``conf``.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -174,7 +174,7 @@ def evaluate_split(
     return result
 
 
-def onnx_detect(model: str | Path, preprocess=None, windows=()):
+def onnx_detect(model: str | Path, preprocess=None, windows: Sequence[Sequence[float]] = ()):
     """A ``detect`` callable running ``OnnxDetector`` at ``AP_CONF`` (with an optional
     ``perception.preprocess`` chain in front, and zoom ``windows``)."""
     from perception.detectors.onnx_detector import OnnxDetector
@@ -190,7 +190,7 @@ def onnx_detect(model: str | Path, preprocess=None, windows=()):
 
 def evaluate_model(
     model: str | Path, split_dir: str | Path, conf: float = 0.25, preprocess=None,
-    min_size: float = MIN_MATCH_SIZE_PX, windows=(),
+    min_size: float = MIN_MATCH_SIZE_PX, windows: Sequence[Sequence[float]] = (),
 ) -> dict:
     """``evaluate_split`` of an ONNX model run as at run time (``windows``: its zoom windows)."""
     result = evaluate_split(load_split(split_dir), onnx_detect(model, preprocess, windows), conf, min_size=min_size)
