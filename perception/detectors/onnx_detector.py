@@ -9,8 +9,8 @@ Output layouts (detected from the output shape and the number of class names):
 Boxes are in letterboxed input pixels; they are mapped back to the original
 image, clipped, and filtered with per-class NMS. With zoom ``windows``
 (``perception.detectors.windows``) the model also runs on each window's crop,
-magnified into its input, and the window's detections replace the whole frame's
-inside it. Class names come from the
+magnified into its input; small objects whole inside a window are taken from the
+window, the rest from the whole frame. Class names come from the
 ``names`` argument (list, dict or names file), else the model's ``names``
 metadata (Ultralytics dict string), else a ``<model>.names`` file beside the
 model. When any name matches one of our ``CLASSES`` (directly or via
@@ -388,7 +388,7 @@ class OnnxDetector:
         if image is None:
             raise ValueError(f"{self.name}: needs an image (rendering is off?)")
         timing = {"preprocess": 0.0, "infer": 0.0, "postprocess": 0.0}
-        found = []
+        found, windows_px = [], []
         for crop, x0, y0 in self.views(image):
             t0 = time.perf_counter()
             tensor, scale, pad = self.preprocess(crop)
@@ -398,6 +398,7 @@ class OnnxDetector:
             dets = self.postprocess(raw, scale, pad, crop.shape[:2])
             dets.xyxy += (x0, y0, x0, y0)
             found.append(dets)
+            windows_px.append((x0, y0, x0 + crop.shape[1], y0 + crop.shape[0]))
             t3 = time.perf_counter()
             timing["preprocess"] += (t1 - t0) * 1e3
             timing["infer"] += (t2 - t1) * 1e3
@@ -405,7 +406,7 @@ class OnnxDetector:
         if len(found) > 1:
             t0 = time.perf_counter()
             h, w = image.shape[:2]
-            found[0] = merge_windows(found[0], found[1:], window_pixels(self.windows, w, h), w, h,
+            found[0] = merge_windows(found[0], found[1:], np.array(windows_px[1:]), w, h,
                                      self.iou_threshold, self.max_det)
             timing["postprocess"] += (time.perf_counter() - t0) * 1e3
         self.last_timing_ms = {**timing, "views": float(len(found))}
