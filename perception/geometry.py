@@ -51,19 +51,35 @@ def grow_boxes(boxes: np.ndarray, min_size: float, buffer: float = 0.0) -> np.nd
     return np.concatenate([centre - half, centre + half], axis=1)
 
 
+def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    lt = np.maximum(a[:, None, :2], b[None, :, :2])
+    rb = np.minimum(a[:, None, 2:], b[None, :, 2:])
+    wh = np.clip(rb - lt, 0, None)
+    return wh[..., 0] * wh[..., 1]
+
+
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Pairwise IoU (N, M) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4)."""
     a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
     if len(a) == 0 or len(b) == 0:
         return np.zeros((len(a), len(b)))
-    lt = np.maximum(a[:, None, :2], b[None, :, :2])
-    rb = np.minimum(a[:, None, 2:], b[None, :, 2:])
-    wh = np.clip(rb - lt, 0, None)
-    inter = wh[..., 0] * wh[..., 1]
+    inter = _intersection(a, b)
     union = box_area(a)[:, None] + box_area(b)[None, :] - inter
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(union > 0, inter / union, 0.0)
+
+
+def ioa_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Pairwise intersection over the area of ``a`` (N, M): the fraction of each box of ``a``
+    (N, 4, xyxy) inside each box of ``b`` (M, 4); 0 for an empty box of ``a``."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    if len(a) == 0 or len(b) == 0:
+        return np.zeros((len(a), len(b)))
+    area = box_area(a)[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(area > 0, _intersection(a, b) / area, 0.0)
 
 
 def clip_boxes(boxes: np.ndarray, width: int, height: int) -> np.ndarray:

@@ -152,6 +152,22 @@ def test_dont_care_ground_truth_is_neither_tp_nor_fp(tmp_path):
     }
 
 
+def test_a_detection_of_the_visible_part_of_a_mostly_hidden_object_is_ignored(tmp_path):
+    # A car behind a bus shows its roof: visible box 30 x 10 px, visible fraction 0.2.
+    # A detection of half that roof (15 x 10, IoU 0.36 with the visible box) lies 4/5 inside
+    # it: KITTI's DontCare rule ignores it; one of another class, or mostly outside, stays an FP.
+    roof = {"id": 3, "cls": CAR, "box": [300, 100, 330, 110], "vf": 0.2}
+    run = write_run(tmp_path / "r", [{
+        "ground_truth": gt({"id": 1, "cls": PED, "box": A}, roof),
+        "detections": dets(
+            (A, 0.9, PED), ([305, 98, 320, 108], 0.8, CAR), ([305, 98, 320, 108], 0.7, PED),
+            ([280, 90, 330, 120], 0.6, CAR),
+        ),
+    }])
+    m = score_run(run)["detection"]
+    assert (m["tp"], m["fp"], m["ignored"]) == (1, 2, 1)
+
+
 # --- tracking -------------------------------------------------------------------
 
 

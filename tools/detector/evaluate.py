@@ -2,8 +2,9 @@
 
 Evaluated ground truth: objects of the eight classes at range ``RANGE_M`` (5-50 m)
 with visible fraction >= ``MIN_VISIBLE`` (0.5) -- the issue's acceptance set. Every
-other labelled object is *don't care*: a detection matching it (same class, IoU >=
-0.5) is neither a true nor a false positive. Matching per image and class is
+other labelled object is *don't care*: a detection of it (same class, IoU >= 0.5 or
+at least half the detection inside its box, ``matching.dont_care_hits``, KITTI's
+DontCare rule) is neither a true nor a false positive. Matching per image and class is
 greedy by score at IoU >= 0.5 (``tools.scoring.matching``; boxes smaller than
 ``min_size`` px, by default ``MIN_MATCH_SIZE_PX`` = 8, are grown to it first, 0 gives
 plain IoU); AP is the all-point interpolated AP of
@@ -38,7 +39,13 @@ import numpy as np
 from perception.detections import CLASSES
 from tools.detector.data import Split, load_split
 from tools.scoring.detection import average_precision
-from tools.scoring.matching import IOU_THRESHOLD, MIN_MATCH_SIZE_PX, class_iou, greedy_match
+from tools.scoring.matching import (
+    IOU_THRESHOLD,
+    MIN_MATCH_SIZE_PX,
+    class_iou,
+    dont_care_hits,
+    greedy_match,
+)
 
 log = logging.getLogger(__name__)
 
@@ -62,8 +69,7 @@ def match_image(
     order = np.argsort(-score, kind="stable")
     iou = class_iou(xyxy, dc, gt[evaluated], None if gc is None else gc[evaluated], min_size)
     tp = greedy_match(iou, order) >= 0
-    iou_dc = class_iou(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated], min_size)
-    ignored = ~tp & np.any(iou_dc >= IOU_THRESHOLD, axis=1)
+    ignored = ~tp & dont_care_hits(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated], min_size)
     return np.where(tp, TP, np.where(ignored, IGNORED, FP))
 
 

@@ -5,9 +5,10 @@ Which ground truth counts (per frame, on the GT *visible* box):
                   no detection class), ``visible_fraction >= MIN_VISIBLE_FRACTION``
                   (0.5) and visible box height ``>= MIN_BOX_HEIGHT_PX`` (10 px);
     don't care -- visible but failing one of those; a detection that matches no
-                  evaluated GT but overlaps a don't-care GT of its class at
-                  IoU >= 0.5 is ignored (neither TP nor FP; any number of them,
-                  as KITTI's DontCare regions);
+                  evaluated GT but is of a don't-care GT of its class -- IoU >= 0.5,
+                  or at least half of it inside that GT's box
+                  (``matching.dont_care_hits``) -- is ignored (neither TP nor FP;
+                  any number of them, as KITTI's DontCare regions);
     invisible GT (no visible box) is neither.
 
 Matching: per frame, detections in descending score order each take the unmatched
@@ -31,7 +32,7 @@ import numpy as np
 
 from perception.detections import CLASSES
 from tools.scoring.io import DetFrame, GTFrame, RunData
-from tools.scoring.matching import IOU_THRESHOLD, class_iou, greedy_match
+from tools.scoring.matching import class_iou, dont_care_hits, greedy_match
 
 MIN_VISIBLE_FRACTION = 0.5
 MIN_BOX_HEIGHT_PX = 10.0
@@ -66,8 +67,7 @@ def match_frame(dets: DetFrame, gt: GTFrame) -> np.ndarray:
     iou = class_iou(dets.xyxy, dets.class_id, gt.visible[evaluated], gt.class_id[evaluated])
     order = np.argsort(-dets.score, kind="stable")
     matched = greedy_match(iou, order) >= 0
-    iou_dc = class_iou(dets.xyxy, dets.class_id, gt.visible[dont_care], gt.class_id[dont_care])
-    ignored = ~matched & np.any(iou_dc >= IOU_THRESHOLD, axis=1)
+    ignored = ~matched & dont_care_hits(dets.xyxy, dets.class_id, gt.visible[dont_care], gt.class_id[dont_care])
     return np.where(matched, TP, np.where(ignored, IGNORED, FP))
 
 

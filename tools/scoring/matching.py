@@ -11,6 +11,9 @@ Constants:
         pixels and sizes alike", which is what such a box can show (nuScenes matches
         by centre distance for the same reason). The tracker associates the same way
         (``TrackerConfig.min_match_size``). 0 restores plain IoU.
+    DONT_CARE_IOA = 0.5 -- a detection is of a don't-care object (``dont_care_hits``)
+        when at least half its area lies inside the object's box, as KITTI's DontCare
+        rule has it (intersection over the detection's area), or it matches the box.
 """
 
 from __future__ import annotations
@@ -18,10 +21,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from perception.geometry import grow_boxes, iou_matrix
+from perception.geometry import grow_boxes, ioa_matrix, iou_matrix
 
 IOU_THRESHOLD = 0.5
 MIN_MATCH_SIZE_PX = 8.0
+DONT_CARE_IOA = 0.5
 
 
 def class_iou(
@@ -41,6 +45,23 @@ def class_iou(
     if a_cls is not None and b_cls is not None:
         valid &= np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :]
     return np.where(valid, iou, 0.0)
+
+
+def dont_care_hits(
+    a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None,
+    min_size: float = MIN_MATCH_SIZE_PX,
+) -> np.ndarray:
+    """(N,) mask of boxes ``a`` that are of one of the don't-care boxes ``b`` (of their class
+    when both class arrays are given): IoU >= ``IOU_THRESHOLD``, or at least
+    ``DONT_CARE_IOA`` of the box inside it (a car's roof seen over the car in front);
+    boxes grown to ``min_size`` px first, as for ``class_iou``."""
+    iou = class_iou(a, a_cls, b, b_cls, min_size)
+    a = np.nan_to_num(np.asarray(a, dtype=np.float64).reshape(-1, 4))
+    b = np.nan_to_num(np.asarray(b, dtype=np.float64).reshape(-1, 4))
+    if min_size > 0:
+        a, b = grow_boxes(a, min_size), grow_boxes(b, min_size)
+    inside = np.where(iou > 0, ioa_matrix(a, b), 0.0)  # iou is 0 for NaN boxes and other classes
+    return np.any(iou >= IOU_THRESHOLD, axis=1) | np.any(inside >= DONT_CARE_IOA, axis=1)
 
 
 def greedy_match(iou: np.ndarray, order: np.ndarray, threshold: float = IOU_THRESHOLD) -> np.ndarray:
