@@ -16,13 +16,15 @@ def _hw(size: int | tuple[int, int]) -> tuple[int, int]:
 
 
 def letterbox(
-    image: np.ndarray, size: int | tuple[int, int]
+    image: np.ndarray, size: int | tuple[int, int], scale: float | None = None
 ) -> tuple[np.ndarray, float, tuple[float, float]]:
     """Fit ``image`` into ``size`` without distortion, centred on grey padding.
 
     Args:
         image: (H, W) or (H, W, C) uint8 image.
         size: target side (px) or (height, width).
+        scale: resize factor (target px per source px); default, and at most, the largest
+            that fits.
 
     Returns:
         ``(padded, scale, (pad_x, pad_y))``: the target-size image, the resize
@@ -35,7 +37,8 @@ def letterbox(
     h, w = image.shape[:2]
     if h <= 0 or w <= 0:
         raise ValueError(f"letterbox: empty image of shape {image.shape}")
-    scale = min(th / h, tw / w)
+    fit = min(th / h, tw / w)
+    scale = fit if scale is None else min(float(scale), fit)
     nw, nh = min(tw, round(w * scale)), min(th, round(h * scale))
     if (nw, nh) != (w, h):
         image = cv2.resize(image, (nw, nh), interpolation=cv2.INTER_LINEAR)
@@ -48,6 +51,15 @@ def letterbox(
             image, top, bottom, left, right, cv2.BORDER_CONSTANT, value=(PAD_VALUE,) * channels
         )
     return image, float(scale), (float(left), float(top))
+
+
+def padded_size(height: int, width: int, scale: float, multiple: int = 32) -> tuple[int, int]:
+    """(height, width) of an image resized by ``scale`` and padded up to a ``multiple`` (px):
+    the input of a model whose input size is dynamic ("rectangular" letterbox)."""
+    def up(n: int) -> int:
+        return max(multiple, -(-round(n * scale) // multiple) * multiple)
+
+    return up(height), up(width)
 
 
 def letterbox_boxes(xyxy: np.ndarray, scale: float, pad: tuple[float, float]) -> np.ndarray:

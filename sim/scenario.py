@@ -336,17 +336,18 @@ class DetectorSpec(Strict):
     model: str | None = Field(None, description="onnx model file; default models/lookahead-det.onnx")
     conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score")
     iou: float = Field(0.45, gt=0.0, le=1.0, description="onnx: per-class NMS IoU threshold")
-    windows: list[tuple[float, float, float, float]] = Field(
+    windows: list[Annotated[tuple[float, ...], Field(min_length=4, max_length=5)]] = Field(
         default_factory=lambda: list(DEFAULT_WINDOWS),
-        description="onnx: zoom windows x0, y0, x1, y1 (fractions of the image) the model also runs on, "
-        "magnified; small objects whole inside a window are its to detect (perception.detectors.windows). "
+        description="onnx: zoom windows x0, y0, x1, y1 (fractions of the image) and an optional zoom (model-input "
+        "px per image px; default: fit the model's input) the model also runs on, magnified; small objects whole "
+        "inside a window are the most magnified one's to detect (perception.detectors.windows). "
         "Default: the middle half around the horizon (2x at 640 x 360); [] for the whole frame only",
     )
     noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")
 
     @field_validator("windows", mode="after")
     @classmethod
-    def _windows(cls, v: list[tuple[float, float, float, float]]) -> list[tuple[float, float, float, float]]:
+    def _windows(cls, v: list[tuple[float, ...]]) -> list[tuple[float, ...]]:
         return list(check_windows(v))  # ValueError: which window, what was expected
 
 

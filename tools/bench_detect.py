@@ -60,7 +60,7 @@ def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None,
             samples["pipeline"].append((time.perf_counter() - t0) * 1e3)
             samples["preprocess"].append(det.last_timing_ms["preprocess"])
             samples["postprocess"].append(det.last_timing_ms["postprocess"])
-            tensors = [det.preprocess(crop)[0] for crop, _, _ in det.views(img)]
+            tensors = [det.preprocess(crop, zoom)[0] for crop, _, _, zoom in det.views(img)]
             t0 = time.perf_counter()
             for tensor in tensors:
                 det.infer(tensor)

@@ -512,8 +512,9 @@ def eval_detector(
         "--min-box", min=0.0, help="grow boxes smaller than this (px) before IoU, as all scoring does; 0: plain IoU"
     )] = 8.0,
     windows: Annotated[str | None, typer.Option(
-        help="zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image, as a scenario's "
-        "perception.detector.windows; default: the scenarios' default; '[]': the whole frame only"
+        help="zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image with an optional zoom "
+        "(input px per image px), as a scenario's perception.detector.windows; default: the scenarios' "
+        "default; '[]': the whole frame only"
     )] = None,
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
@@ -539,7 +540,7 @@ def eval_detector(
     results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom)
                for sp in splits}
     shown = "; ".join(" ".join(f"{v:.3g}" for v in w) for w in zoom) or "none, the whole frame only"
-    print(f"zoom windows (x0 y0 x1 y1): {shown}")
+    print(f"zoom windows (x0 y0 x1 y1 [zoom]): {shown}")
     print(f"{'split':32s} {'AP50':>6s} {'pooled':>6s} {'R@P95':>6s} {'P':>6s} {'R':>6s}  per-class AP50")
     for sp, m in results.items():
         pc = " ".join(f"{k[:4]}={v['ap50']:.2f}" for k, v in m["per_class"].items())

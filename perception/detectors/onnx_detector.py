@@ -33,9 +33,9 @@ import yaml
 
 from perception.detections import CLASS_ID, Detections
 from perception.detectors.base import DetectorTruth
-from perception.detectors.windows import check_windows, merge_windows, window_pixels
+from perception.detectors.windows import check_windows, merge_windows, window_pixels, window_zoom
 from perception.geometry import clip_boxes
-from perception.letterbox import letterbox, unletterbox_boxes
+from perception.letterbox import letterbox, padded_size, unletterbox_boxes
 from perception.nms import nms
 
 log = logging.getLogger(__name__)
@@ -68,6 +68,9 @@ PREFERRED_PROVIDERS = ("TensorrtExecutionProvider", "CUDAExecutionProvider", "CP
 
 #: Candidates kept before NMS (highest scores), as in Ultralytics.
 MAX_NMS_CANDIDATES = 30000
+
+#: A dynamic-size input is padded to a multiple of this (px): the coarsest stride of YOLO-family nets.
+INPUT_MULTIPLE = 32
 
 _V5, _V8 = "v5", "v8"
 
@@ -152,11 +155,13 @@ class OnnxDetector:
         conf_threshold: minimum score kept (strictly greater).
         iou_threshold: per-class NMS IoU threshold.
         max_det: most detections returned per image.
-        input_size: (px) side or (height, width) used only when the model's input is dynamic; default 640.
+        input_size: (px) side or (height, width) used only when the model's input is dynamic: the
+            whole frame is fitted into it (then padded only to a multiple of 32); default the
+            model's ``imgsz`` metadata, else 640.
         names: class names (list, {index: name} dict, or a names file path); overrides the metadata.
         providers: onnxruntime providers; default TensorRT/CUDA when available, else CPU.
-        windows: zoom windows (x0, y0, x1, y1 as fractions of the image) run as well, magnified
-            (``perception.detectors.windows``); empty: the whole frame only.
+        windows: zoom windows (x0, y0, x1, y1 as fractions of the image, optionally a zoom) run as
+            well, magnified (``perception.detectors.windows``); empty: the whole frame only.
 
     Attributes:
         session: the ``onnxruntime.InferenceSession`` (time ``session.run`` alone via ``infer``).
@@ -232,14 +237,25 @@ class OnnxDetector:
                 f"{self._label}: input shape {_fmt_shape(shape)} is not [1, 3, H, W] (NCHW RGB)"
             )
         h, w = _static(shape[2]), _static(shape[3])
-        if h is not None and w is not None:
+        self.dynamic_input = h is None or w is None
+        if not self.dynamic_input:
             if input_size is not None and _as_hw(input_size) != (h, w):
                 log.warning(
                     "%s: input_size %s ignored; model input is %dx%d", self._label, input_size, h, w
                 )
             self.input_hw = (h, w)
         else:
-            self.input_hw = _as_hw(input_size) if input_size is not None else (640, 640)
+            self.input_hw = _as_hw(input_size if input_size is not None else self._metadata_imgsz() or 640)
+
+    def _metadata_imgsz(self) -> tuple[int, int] | None:
+        """The ``imgsz`` metadata (Ultralytics: ``[h, w]`` or a side), None when absent or unreadable."""
+        value = (self.session.get_modelmeta().custom_metadata_map or {}).get("imgsz")
+        try:
+            size = ast.literal_eval(value) if value else None
+            hw = _as_hw(size if isinstance(size, int) else tuple(size)) if size is not None else None
+        except (ValueError, SyntaxError, TypeError):
+            hw = None
+        return hw if hw is not None and min(hw) > 0 else None
 
     def _resolve_names(self, names: Any) -> list[str] | None:
         if names is not None:
@@ -315,13 +331,24 @@ class OnnxDetector:
 
     # ------------------------------------------------------------- pipeline
 
-    def preprocess(self, image: np.ndarray) -> tuple[np.ndarray, float, tuple[float, float]]:
-        """RGB uint8 (H, W, 3) -> (1, 3, h, w) float tensor in [0, 1], letterbox scale, pad (px)."""
+    def preprocess(
+        self, image: np.ndarray, zoom: float | None = None
+    ) -> tuple[np.ndarray, float, tuple[float, float]]:
+        """RGB uint8 (H, W, 3) -> (1, 3, h, w) float tensor in [0, 1], letterbox scale, pad (px).
+
+        ``zoom``: input px per image px (a window's); default, and with a fixed input at most,
+        the scale that fits the model's input. A dynamic input is only as large as the resized
+        image, padded to a multiple of ``INPUT_MULTIPLE``."""
         if image.ndim == 2:
             image = np.repeat(image[:, :, None], 3, axis=2)
         elif image.shape[2] == 4:
             image = image[:, :, :3]
-        padded, scale, pad = letterbox(np.ascontiguousarray(image), self.input_hw)
+        h, w = image.shape[:2]
+        size, scale = self.input_hw, zoom
+        if self.dynamic_input:
+            scale = min(self.input_hw[0] / h, self.input_hw[1] / w) if zoom is None else zoom
+            size = padded_size(h, w, scale, INPUT_MULTIPLE)
+        padded, scale, pad = letterbox(np.ascontiguousarray(image), size, scale)
         tensor = padded.transpose(2, 0, 1)[None].astype(self._input_dtype)  # one contiguous copy
         tensor *= self._input_dtype(1.0 / 255.0)  # multiply: about half the cost of a division
         return tensor, scale, pad
@@ -374,13 +401,14 @@ class OnnxDetector:
         xyxy = clip_boxes(xyxy, image_hw[1], image_hw[0])
         return Detections(xyxy=xyxy, score=score[idx], class_id=cls[idx])
 
-    def views(self, image: np.ndarray) -> list[tuple[np.ndarray, int, int]]:
+    def views(self, image: np.ndarray) -> list[tuple[np.ndarray, int, int, float | None]]:
         """What one ``detect`` runs the model on: the whole image, then each window's crop,
-        each with its top-left corner in the image (px)."""
+        each with its top-left corner in the image (px) and its zoom (None: fit the input)."""
         h, w = image.shape[:2]
-        crops = [(image, 0, 0)]
-        for x0, y0, x1, y1 in window_pixels(self.windows, w, h).tolist():
-            crops.append((image[y0:y1, x0:x1], x0, y0))
+        crops: list[tuple[np.ndarray, int, int, float | None]] = [(image, 0, 0, None)]
+        for win in self.windows:
+            for x0, y0, x1, y1 in window_pixels([win], w, h).tolist():
+                crops.append((image[y0:y1, x0:x1], x0, y0, window_zoom(win)))
         return crops
 
     def detect(self, image: np.ndarray | None, truth: DetectorTruth | None = None) -> Detections:
@@ -388,10 +416,10 @@ class OnnxDetector:
         if image is None:
             raise ValueError(f"{self.name}: needs an image (rendering is off?)")
         timing = {"preprocess": 0.0, "infer": 0.0, "postprocess": 0.0}
-        found, windows_px = [], []
-        for crop, x0, y0 in self.views(image):
+        found, windows_px, scales = [], [], []
+        for crop, x0, y0, zoom in self.views(image):
             t0 = time.perf_counter()
-            tensor, scale, pad = self.preprocess(crop)
+            tensor, scale, pad = self.preprocess(crop, zoom)
             t1 = time.perf_counter()
             raw = self.infer(tensor)
             t2 = time.perf_counter()
@@ -399,6 +427,7 @@ class OnnxDetector:
             dets.xyxy += (x0, y0, x0, y0)
             found.append(dets)
             windows_px.append((x0, y0, x0 + crop.shape[1], y0 + crop.shape[0]))
+            scales.append(scale)
             t3 = time.perf_counter()
             timing["preprocess"] += (t1 - t0) * 1e3
             timing["infer"] += (t2 - t1) * 1e3
@@ -407,7 +436,7 @@ class OnnxDetector:
             t0 = time.perf_counter()
             h, w = image.shape[:2]
             found[0] = merge_windows(found[0], found[1:], np.array(windows_px[1:]), w, h,
-                                     self.iou_threshold, self.max_det)
+                                     self.iou_threshold, self.max_det, scales[1:])
             timing["postprocess"] += (time.perf_counter() - t0) * 1e3
         self.last_timing_ms = {**timing, "views": float(len(found))}
         return found[0]

@@ -1,11 +1,16 @@
 """Zoom windows: a detector also run on magnified regions of the frame (SAHI-style slicing).
 
 A window is a region of the image given as fractions of its width and height,
-``(x0, y0, x1, y1)`` in [0, 1]. The detector sees it cropped and letterboxed into its
-input like a whole frame, so it is magnified by input size / window size: the default
-window, the middle half of a 640 x 360 frame around the horizon (160..480 x 80..272 px),
-reaches a 640 x 384 input at 2x. Distant objects -- a pedestrian at 40 m is 3 px wide --
-are what a detector at 640 x 360 misses most, and there they cover four times the pixels.
+``(x0, y0, x1, y1)`` in [0, 1], optionally followed by a ``zoom``: model-input pixels per
+image pixel. The detector sees it cropped and resized like a whole frame. Without a
+zoom it is letterboxed into the model's input, so it is magnified by input size / window
+size: the default window, the middle half of a 640 x 360 frame around the horizon
+(160..480 x 80..272 px), reaches a 640 x 384 input at 2x. With a zoom, a model whose
+input size is dynamic sees the window at exactly that magnification (padded to a
+multiple of 32 px), so a flat band costs its own area, not a whole input; a model with
+a fixed input caps the zoom at what fits. Distant objects -- a pedestrian at 40 m is
+3 px wide -- are what a detector at 640 x 360 misses most, and magnified 2x they cover
+four times the pixels.
 
 Merging (``merge_windows``): each object is left to the one view that sees it at a good
 scale (as SNIP trains and tests each scale of an image pyramid on the objects of its
@@ -40,30 +45,47 @@ MAX_HEIGHT_FRACTION = 0.25
 #: Smallest window side (px); a smaller region holds nothing worth a detector run.
 MIN_WINDOW_PX = 8
 
+#: Largest zoom (input px per image px) a window may ask for.
+MAX_ZOOM = 8.0
 
-def check_windows(windows: Sequence[Sequence[float]]) -> tuple[tuple[float, float, float, float], ...]:
-    """``windows`` as a tuple of 4-tuples, or ``ValueError`` naming the first bad one."""
+#: A window: x0, y0, x1, y1 as fractions of the image, optionally a zoom (input px per image px).
+Window = tuple[float, ...]
+
+
+def check_windows(windows: Sequence[Sequence[float]]) -> tuple[Window, ...]:
+    """``windows`` as a tuple of 4- or 5-tuples of floats, or ``ValueError`` naming the first bad one."""
     out = []
     for i, w in enumerate(windows):
         try:
-            x0, y0, x1, y1 = (float(v) for v in w)
+            vals = tuple(float(v) for v in w)
         except (TypeError, ValueError):
-            raise ValueError(f"window {i}: four numbers x0 y0 x1 y1 expected, got {w!r}") from None
+            vals = ()
+        if len(vals) not in (4, 5) or not all(np.isfinite(vals)):
+            raise ValueError(f"window {i}: four numbers x0 y0 x1 y1 and an optional zoom expected, got {w!r}")
+        x0, y0, x1, y1 = vals[:4]
         if not (0.0 <= x0 < x1 <= 1.0 and 0.0 <= y0 < y1 <= 1.0):
             raise ValueError(
                 f"window {i}: fractions of the image with 0 <= x0 < x1 <= 1 and 0 <= y0 < y1 <= 1 "
                 f"expected, got {list(w)}"
             )
-        out.append((x0, y0, x1, y1))
+        if len(vals) == 5 and not 0.0 < vals[4] <= MAX_ZOOM:
+            raise ValueError(f"window {i}: zoom (input px per image px) in (0, {MAX_ZOOM:g}] expected, got {vals[4]:g}")
+        out.append(vals)
     return tuple(out)
+
+
+def window_zoom(window: Sequence[float]) -> float | None:
+    """The zoom a window asks for (input px per image px), None: fit into the model's input."""
+    return float(window[4]) if len(window) > 4 else None
 
 
 def window_pixels(windows: Sequence[Sequence[float]], width: int, height: int) -> np.ndarray:
     """(K, 4) int windows x0, y0, x1, y1 in pixels of a ``width`` x ``height`` image (rounded,
-    at least ``MIN_WINDOW_PX`` a side; windows too small for that are left out)."""
+    at least ``MIN_WINDOW_PX`` a side; windows too small for that are left out; a zoom is ignored)."""
     if not len(windows):
         return np.zeros((0, 4), dtype=np.int64)
-    px = np.rint(np.asarray(windows, dtype=np.float64) * [width, height, width, height]).astype(np.int64)
+    frac = np.array([w[:4] for w in windows], dtype=np.float64)
+    px = np.rint(frac * [width, height, width, height]).astype(np.int64)
     keep = (px[:, 2] - px[:, 0] >= MIN_WINDOW_PX) & (px[:, 3] - px[:, 1] >= MIN_WINDOW_PX)
     return px[keep]
 
@@ -89,16 +111,24 @@ def windows_own(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -
 
 def merge_windows(
     frame: Detections, views: Sequence[Detections], windows_px: np.ndarray, width: int, height: int,
-    iou_threshold: float, max_det: int,
+    iou_threshold: float, max_det: int, magnification: Sequence[float] | None = None,
 ) -> Detections:
     """Whole-frame detections and one ``Detections`` per window (all in image px) -> one set
-    (module docstring), highest score first."""
-    keep_frame = np.ones(len(frame), dtype=bool)
-    parts = []
-    for dets, win in zip(views, windows_px, strict=True):
-        keep_frame &= ~windows_own(frame.xyxy, win, width, height)
-        parts.append(dets[windows_own(dets.xyxy, win, width, height)])
-    parts.insert(0, frame[keep_frame])
+    (module docstring), highest score first.
+
+    ``magnification`` (K,): how much each window's view magnifies the image (its letterbox
+    scale); a box a window owns is dropped from every less magnified view, so nested windows
+    hand each object to the most magnified view that holds it whole. Default: all windows
+    magnify alike and only the whole frame gives way to them."""
+    mag = np.ones(len(views)) if magnification is None else np.asarray(magnification, dtype=np.float64)
+    owned_frame = [windows_own(frame.xyxy, win, width, height) for win in windows_px]
+    keep_frame = ~np.any(owned_frame, axis=0) if len(views) else np.ones(len(frame), dtype=bool)
+    parts = [frame[keep_frame]]
+    for k, (dets, win) in enumerate(zip(views, windows_px, strict=True)):
+        keep = windows_own(dets.xyxy, win, width, height)
+        for j in np.flatnonzero(mag > mag[k]):
+            keep &= ~windows_own(dets.xyxy, windows_px[j], width, height)
+        parts.append(dets[keep])
     xyxy = np.concatenate([p.xyxy for p in parts])
     score = np.concatenate([p.score for p in parts])
     cls = np.concatenate([p.class_id for p in parts])

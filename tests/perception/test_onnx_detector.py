@@ -31,9 +31,9 @@ N_ANCHORS = 20
 NC = 4
 
 
-def _lb_rows() -> np.ndarray:
-    """(N_ANCHORS, 4 + NC) rows cx, cy, w, h, class scores in letterboxed pixels."""
-    _, scale, pad = letterbox(IMAGE, S)
+def _lb_rows(size: int | tuple[int, int] = S) -> np.ndarray:
+    """(N_ANCHORS, 4 + NC) rows cx, cy, w, h, class scores in pixels letterboxed to ``size``."""
+    _, scale, pad = letterbox(IMAGE, size)
     rows = np.zeros((N_ANCHORS, 4 + NC), dtype=np.float32)
     for i, (box, cls, score) in enumerate(CANDIDATES):
         x0, y0, x1, y1 = letterbox_boxes(np.array(box, dtype=float), scale, pad)[0]
@@ -42,8 +42,8 @@ def _lb_rows() -> np.ndarray:
     return rows
 
 
-def v8_output() -> np.ndarray:
-    return _lb_rows().T[None].copy()  # [1, 4+C, N]
+def v8_output(size: int | tuple[int, int] = S) -> np.ndarray:
+    return _lb_rows(size).T[None].copy()  # [1, 4+C, N]
 
 
 def v5_output() -> np.ndarray:
@@ -61,6 +61,7 @@ def make_model(
     names: str | None = META_NAMES,
     input_shape: list[int | str] | None = None,
     dynamic_output: bool = False,
+    metadata: dict[str, str] | None = None,
 ) -> Path:
     """Save an ONNX model whose output is ``output`` whatever ``images`` holds.
 
@@ -100,8 +101,11 @@ def make_model(
     )
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
     model.ir_version = 9
+    props = dict(metadata or {})
     if names is not None:
-        helper.set_model_props(model, {"names": names})
+        props["names"] = names
+    if props:
+        helper.set_model_props(model, props)
     onnx.checker.check_model(model)
     onnx.save(model, path)
     return path
@@ -191,12 +195,29 @@ def test_coco_aliases_map_to_our_classes(tmp_path: Path) -> None:
     assert det.class_map.tolist() == [0, 1, 7, -1]
 
 
-def test_dynamic_input_uses_input_size(tmp_path: Path) -> None:
-    path = make_model(tmp_path / "m.onnx", v8_output(), input_shape=["batch", 3, "height", "width"])
+def test_dynamic_input_fits_the_frame_into_input_size_padded_only_to_a_multiple_of_32(tmp_path: Path) -> None:
+    rect = (256, S)  # 360 x 640 at 0.65 is 234 x 416 px, padded to 256 x 416
+    dynamic = ["batch", 3, "height", "width"]
+    path = make_model(tmp_path / "m.onnx", v8_output(rect), input_shape=dynamic)
     det = OnnxDetector(path, input_size=S)
-    assert det.input_hw == (S, S)
+    assert det.dynamic_input and det.input_hw == (S, S)
+    tensor, scale, pad = det.preprocess(IMAGE)
+    assert tensor.shape == (1, 3, *rect) and scale == pytest.approx(0.65) and pad == (0.0, 11.0)
     np.testing.assert_allclose(det.detect(IMAGE).xyxy, EXPECTED_XYXY, atol=1e-3)
-    assert OnnxDetector(path).input_hw == (640, 640)
+    assert OnnxDetector(path).input_hw == (640, 640)  # no size given, none in the metadata
+    sized = make_model(tmp_path / "s.onnx", v8_output(rect), input_shape=dynamic, metadata={"imgsz": "[384, 640]"})
+    assert OnnxDetector(sized).input_hw == (384, 640)
+
+
+def test_a_zoom_magnifies_exactly_on_a_dynamic_input_and_is_capped_by_a_fixed_one(tmp_path: Path) -> None:
+    crop = IMAGE[:100, :200]
+    dynamic = OnnxDetector(make_model(tmp_path / "d.onnx", v8_output(), input_shape=["batch", 3, "h", "w"]))
+    tensor, scale, pad = dynamic.preprocess(crop, zoom=3.0)
+    assert tensor.shape == (1, 3, 320, 608) and scale == 3.0 and pad == (4.0, 10.0)
+    fixed = OnnxDetector(make_model(tmp_path / "f.onnx", v8_output()))
+    tensor, scale, _ = fixed.preprocess(crop, zoom=3.0)
+    assert tensor.shape == (1, 3, S, S) and scale == pytest.approx(S / 200)
+    assert fixed.preprocess(crop, zoom=1.5)[1] == 1.5
 
 
 def test_dynamic_output_resolved_at_run_time(tmp_path: Path) -> None:
@@ -254,7 +275,7 @@ def test_a_zoom_window_runs_the_model_on_its_crop_and_its_boxes_land_in_image_pi
     # whole frame: scale 0.65, pad_y 91 -> centre (320, 180), 40 px a side
     np.testing.assert_allclose(whole.xyxy, [[300, 160, 340, 200]], atol=1e-4)
     det = OnnxDetector(path, windows=[(0.25, 0.25, 0.75, 0.75)])
-    assert [(c.shape[:2], x, y) for c, x, y in det.views(IMAGE)] == [((360, 640), 0, 0), ((180, 320), 160, 90)]
+    assert [(c.shape[:2], x, y) for c, x, y, _ in det.views(IMAGE)] == [((360, 640), 0, 0), ((180, 320), 160, 90)]
     dets = det.detect(IMAGE)
     # the window's crop 160..480 x 90..270 at scale 1.3, pad_y 91 -> centre (320, 180), 20 px a side;
     # it lies inside the window, so it replaces the whole frame's box there

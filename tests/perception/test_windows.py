@@ -13,6 +13,7 @@ from perception.detectors.windows import (
     interior,
     merge_windows,
     window_pixels,
+    window_zoom,
 )
 
 W, H = 640, 360
@@ -33,7 +34,7 @@ def test_the_default_window_is_the_middle_half_around_the_horizon_at_2x():
 def test_bad_windows_are_named_with_what_was_expected():
     with pytest.raises(ValueError, match=r"window 1: fractions of the image .* got \[0.5, 0.0, 0.2, 1.0\]"):
         check_windows([(0, 0, 1, 1), (0.5, 0.0, 0.2, 1.0)])
-    with pytest.raises(ValueError, match="window 0: four numbers"):
+    with pytest.raises(ValueError, match="window 0: four numbers x0 y0 x1 y1"):
         check_windows([(0.1, 0.2, 0.3)])
     assert check_windows([]) == ()
 
@@ -77,3 +78,27 @@ def test_overlapping_windows_do_not_double_an_object():
     b = dets((300.2, 150.5, 306, 170, 0.6, 0))
     merged = merge_windows(Detections.empty(), [a, b], wins, W, H, 0.45, 300)
     assert len(merged) == 1 and merged.score[0] == 0.7
+
+
+def test_a_window_may_ask_for_a_zoom_and_a_bad_one_is_named():
+    assert check_windows([(0.25, 0.35, 0.75, 0.62, 3)]) == ((0.25, 0.35, 0.75, 0.62, 3.0),)
+    assert window_zoom((0.25, 0.35, 0.75, 0.62, 3)) == 3.0 and window_zoom(DEFAULT_WINDOWS[0]) is None
+    assert window_pixels([(0.25, 0.35, 0.75, 0.62, 3)], W, H).tolist() == [[160, 126, 480, 223]]
+    with pytest.raises(ValueError, match=r"window 0: zoom \(input px per image px\) in \(0, 8\] expected, got 0"):
+        check_windows([(0.25, 0.35, 0.75, 0.62, 0)])
+    with pytest.raises(ValueError, match="window 0: four numbers x0 y0 x1 y1 and an optional zoom"):
+        check_windows([(0.25, 0.35, 0.75, 0.62, 3, 1)])
+
+
+def test_nested_windows_hand_an_object_to_the_most_magnified_view_that_holds_it_whole():
+    fine = np.array([160, 128, 480, 224])  # 3x: owns boxes under 24 px tall inside it
+    frame = dets((300, 150, 303, 162, 0.5, 0))
+    coarse = dets(
+        (300.2, 150, 303, 162, 0.6, 0),  # the small one: the fine window's, dropped here
+        (300.1, 150, 302.9, 161.5, 0.55, 1),  # the same, another class: dropped too, no duplicate
+        (200, 140, 212, 170, 0.8, 0),  # 30 px tall: too big for the fine window, the coarse one's
+    )
+    finer = dets((300.4, 150.2, 303.1, 162.2, 0.7, 0), (200, 140, 212, 170, 0.9, 0))
+    merged = merge_windows(frame, [coarse, finer], np.array([WIN, fine]), W, H, 0.45, 300, magnification=[2.0, 3.0])
+    assert merged.xyxy.tolist() == [[200, 140, 212, 170], [300.4, 150.2, 303.1, 162.2]]
+    assert merged.score.tolist() == [0.8, 0.7]

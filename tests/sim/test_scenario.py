@@ -80,6 +80,8 @@ BASE = "name: a\nactors:\n  - {id: p, type: pedestrian, start: {x: 20, y: 2}}\n"
         ("perception:\n  estimator:\n    edge_sigma_rell: 0.1\n", "x.yaml:6", "perception.estimator.edge_sigma_rell"),
         ("intent:\n  horizn: 3\n", "x.yaml:5", "intent.horizn"),
         ("perception:\n  detector:\n    windows: [[0.6, 0.2, 0.4, 0.8]]\n", "x.yaml:6", "perception.detector.windows"),
+        ("perception:\n  detector:\n    windows: [[0.2, 0.2, 0.4, 0.8, 0]]\n", "x.yaml:6", "perception.detector.windows"),
+        ("perception:\n  detector:\n    windows: [[0.2, 0.2, 0.4]]\n", "x.yaml:6", "perception.detector.windows[0]"),
         ("intent:\n  risk:\n    pedestrian:\n      high_ttc: soon\n", "x.yaml:7", "intent.risk.pedestrian.high_ttc"),
     ],
 )

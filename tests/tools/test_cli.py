@@ -166,6 +166,7 @@ def test_validate_prints_one_line_per_file_and_exits_2(tmp_path, body, needle):
 @pytest.mark.parametrize(("windows", "needle"), [
     ("[[0.6, 0.2, 0.4, 0.8]]", "--windows: window 0: fractions of the image"),
     ("[[0.1, 0.2]]", "--windows: window 0: four numbers"),
+    ("[[0.1, 0.2, 0.5, 0.6, 9]]", "--windows: window 0: zoom (input px per image px) in (0, 8] expected, got 9"),
     ("[[0.1, 0.2", "--windows: malformed YAML: expected ',' or ']', but got '<stream end>' (column 11)"),
 ])
 def test_eval_detector_refuses_a_bad_zoom_window_on_one_line(tmp_path, windows, needle):

@@ -166,9 +166,11 @@ def test_a_real_training_run_exports_a_model_the_detector_runs(tiny_dataset, tmp
     assert "val" in result["history"][-1]
     det = OnnxDetector(out)
     assert det.layout == "v8" and det.num_classes == 8 and det.input_hw == (384, 640)
+    assert det.dynamic_input  # zoom windows run at their own size
     assert det.names[0] == "pedestrian" and det.class_map is not None
     d = det.detect(np.zeros((360, 640, 3), np.uint8))
     assert d.xyxy.shape[1] == 4
+    assert det.infer(det.preprocess(np.zeros((96, 320, 3), np.uint8), zoom=3.0)[0]).shape == (1, 12, 72 * 240)
     net = CenterDet()
     assert sum(p.numel() for p in net.parameters()) < 2_000_000
 

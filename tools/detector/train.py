@@ -115,7 +115,9 @@ def reg_loss(reg, index, target, valid):
 
 
 def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, int] = (384, 640)) -> Path:
-    """Write the decoded graph (``model.Decoded``) as ONNX opset 17 with ``metadata``."""
+    """Write the decoded graph (``model.Decoded``) as ONNX opset 17 with ``metadata``; its input
+    height and width are dynamic (multiples of 32; ``input_hw`` is the traced size and the
+    ``imgsz`` the detector fits a whole frame into), so zoom windows run at their own size."""
     import onnx
     import torch
 
@@ -128,7 +130,8 @@ def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, 
     tmp = path.with_suffix(".tmp.onnx")
     with torch.no_grad():
         torch.onnx.export(dec, x, str(tmp), opset_version=17, input_names=["images"],
-                          output_names=["output0"], dynamo=False, do_constant_folding=True)
+                          output_names=["output0"], dynamo=False, do_constant_folding=True,
+                          dynamic_axes={"images": {2: "height", 3: "width"}, "output0": {2: "cells"}})
     model = onnx.load(str(tmp))
     for k, v in metadata.items():
         entry = model.metadata_props.add()
