@@ -465,7 +465,7 @@ def train_detector(
     log_file: Annotated[Path | None, typer.Option("--log", help="write the training log (JSON) here")] = None,
     init: Annotated[Path | None, typer.Option("--init", help="start from this checkpoint (.pt written beside a model) or an exported .onnx model")] = None,
     crop: Annotated[tuple[int, int], typer.Option(help="training crop height width (px, multiples of 32)")] = (256, 384),
-    scale: Annotated[tuple[float, float], typer.Option(min=0.1, help="rescale training frames by a log-uniform factor in LO HI (2 covers a 2x zoom window at run time)")] = (0.8, 1.25),
+    scale: Annotated[tuple[float, float], typer.Option(min=0.1, help="rescale training frames by a log-uniform factor in LO HI (0.8 2.2 teaches the magnified views of a 2x zoom window, 0.8 3.2 up to 3x)")] = (0.8, 1.25),
     resume: Annotated[bool, typer.Option("--resume", help="continue this same command's interrupted run from the state saved beside --out after each epoch")] = False,
     widths: Annotated[tuple[int, int, int, int, int] | None, typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32 (default: the shipped model's)")] = None,
     neck: Annotated[int | None, typer.Option(min=1, help="neck channels, strides 8 and 16 (default: the shipped model's)")] = None,
