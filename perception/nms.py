@@ -11,11 +11,14 @@ def nms(
     class_id: np.ndarray | None = None,
     iou_threshold: float = 0.45,
     max_det: int = 300,
+    ioa_threshold: float | None = None,
 ) -> np.ndarray:
     """Greedy per-class NMS; returns kept indices, highest score first.
 
     A box is suppressed when its IoU with a higher-scoring kept box of the same
-    class is strictly greater than ``iou_threshold`` (torchvision convention).
+    class is strictly greater than ``iou_threshold`` (torchvision convention), or, with
+    ``ioa_threshold``, when more than that fraction of its own area lies inside one (a
+    part of an object -- a cow's head or legs -- found beside the whole).
     Classes are separated with the offset trick: each class's boxes are shifted
     by ``class_index * span`` so boxes of different classes never overlap. Ties in
     score keep the lower index first (stable sort), so results are deterministic.
@@ -26,6 +29,8 @@ def nms(
         class_id: (N,) integer classes; None = class-agnostic.
         iou_threshold: IoU above which a lower-scoring box is dropped.
         max_det: at most this many indices are returned.
+        ioa_threshold: fraction of a lower-scoring box's area inside a kept box above which
+            it is dropped too; None: IoU only.
 
     Returns:
         (K,) int64 indices into the inputs, K <= max_det.
@@ -55,5 +60,9 @@ def nms(
         union = area[i] + area[rest] - inter
         with np.errstate(divide="ignore", invalid="ignore"):
             iou = np.where(union > 0, inter / union, 0.0)
-        order = rest[iou <= iou_threshold]
+        drop = iou > iou_threshold
+        if ioa_threshold is not None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                drop |= np.where(area[rest] > 0, inter / area[rest], 0.0) > ioa_threshold
+        order = rest[~drop]
     return np.asarray(keep, dtype=np.int64)

@@ -69,6 +69,10 @@ PREFERRED_PROVIDERS = ("TensorrtExecutionProvider", "CUDAExecutionProvider", "CP
 #: Candidates kept before NMS (highest scores), as in Ultralytics.
 MAX_NMS_CANDIDATES = 30000
 
+#: A box with more than this fraction of its area inside a higher-scoring box of its class is
+#: dropped by NMS as a part of that object (a cow's head or legs beside the whole cow).
+CONTAINMENT = 0.8
+
 #: A dynamic-size input is padded to a multiple of this (px): the coarsest stride of YOLO-family nets.
 INPUT_MULTIPLE = 32
 
@@ -153,7 +157,8 @@ class OnnxDetector:
     Args:
         model_path: the ``.onnx`` file.
         conf_threshold: minimum score kept (strictly greater).
-        iou_threshold: per-class NMS IoU threshold.
+        iou_threshold: per-class NMS IoU threshold (boxes mostly inside a better one of their
+            class, ``CONTAINMENT``, are dropped too).
         max_det: most detections returned per image.
         input_size: (px) side or (height, width) used only when the model's input is dynamic: the
             whole frame is fitted into it (then padded only to a multiple of 32); default the
@@ -396,7 +401,7 @@ class OnnxDetector:
             boxes, score, cls = boxes[top], score[top], cls[top]
         xy, half = boxes[:, :2].astype(np.float64), boxes[:, 2:4].astype(np.float64) / 2.0
         xyxy = np.concatenate([xy - half, xy + half], axis=1)
-        idx = nms(xyxy, score, cls, self.iou_threshold, self.max_det)
+        idx = nms(xyxy, score, cls, self.iou_threshold, self.max_det, CONTAINMENT)
         xyxy = unletterbox_boxes(xyxy[idx], scale, pad)
         xyxy = clip_boxes(xyxy, image_hw[1], image_hw[0])
         return Detections(xyxy=xyxy, score=score[idx], class_id=cls[idx])
@@ -436,7 +441,7 @@ class OnnxDetector:
             t0 = time.perf_counter()
             h, w = image.shape[:2]
             found[0] = merge_windows(found[0], found[1:], np.array(windows_px[1:]), w, h,
-                                     self.iou_threshold, self.max_det, scales[1:])
+                                     self.iou_threshold, self.max_det, scales[1:], CONTAINMENT)
             timing["postprocess"] += (time.perf_counter() - t0) * 1e3
         self.last_timing_ms = {**timing, "views": float(len(found))}
         return found[0]

@@ -112,6 +112,7 @@ def windows_own(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -
 def merge_windows(
     frame: Detections, views: Sequence[Detections], windows_px: np.ndarray, width: int, height: int,
     iou_threshold: float, max_det: int, magnification: Sequence[float] | None = None,
+    ioa_threshold: float | None = None,
 ) -> Detections:
     """Whole-frame detections and one ``Detections`` per window (all in image px) -> one set
     (module docstring), highest score first.
@@ -119,7 +120,7 @@ def merge_windows(
     ``magnification`` (K,): how much each window's view magnifies the image (its letterbox
     scale); a box a window owns is dropped from every less magnified view, so nested windows
     hand each object to the most magnified view that holds it whole. Default: all windows
-    magnify alike and only the whole frame gives way to them."""
+    magnify alike and only the whole frame gives way to them. ``ioa_threshold``: as ``nms``'s."""
     mag = np.ones(len(views)) if magnification is None else np.asarray(magnification, dtype=np.float64)
     owned_frame = [windows_own(frame.xyxy, win, width, height) for win in windows_px]
     keep_frame = ~np.any(owned_frame, axis=0) if len(views) else np.ones(len(frame), dtype=bool)
@@ -132,5 +133,5 @@ def merge_windows(
     xyxy = np.concatenate([p.xyxy for p in parts])
     score = np.concatenate([p.score for p in parts])
     cls = np.concatenate([p.class_id for p in parts])
-    idx = nms(xyxy, score, cls, iou_threshold, max_det)
+    idx = nms(xyxy, score, cls, iou_threshold, max_det, ioa_threshold)
     return Detections(xyxy=xyxy[idx], score=score[idx], class_id=cls[idx])

@@ -58,3 +58,15 @@ def test_empty_and_ties() -> None:
     assert nms(np.zeros((0, 4)), np.zeros(0), np.zeros(0), 0.5, 10).shape == (0,)
     xyxy = np.array([[0, 0, 10, 10]] * 3, dtype=float)
     assert nms(xyxy, np.full(3, 0.5), np.zeros(3), 0.5, 10).tolist() == [0]
+
+
+def test_a_part_inside_a_better_box_of_its_class_is_dropped_with_a_containment_threshold():
+    cow = [300.0, 170.0, 340.0, 190.0]
+    head = [332.0, 170.0, 340.0, 182.0]  # all inside the cow, IoU 0.12
+    dog = [332.0, 170.0, 340.0, 182.0]  # the same box, another class
+    xyxy = np.array([cow, head, dog])
+    score, cls = np.array([0.7, 0.5, 0.4]), np.array([7, 7, 0])
+    assert nms(xyxy, score, cls, 0.45).tolist() == [0, 1, 2]
+    assert nms(xyxy, score, cls, 0.45, ioa_threshold=0.8).tolist() == [0, 2]
+    # the part scoring higher than the whole keeps both: the whole is not inside the part
+    assert nms(xyxy, np.array([0.4, 0.5, 0.4]), cls, 0.45, ioa_threshold=0.8).tolist() == [1, 0, 2]
