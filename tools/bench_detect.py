@@ -52,7 +52,7 @@ def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None,
     samples: dict[str, list[float]] = {"pipeline": [], "session_run": [], "preprocess": [], "postprocess": [],
                                        "whole_frame": []}
     n_dets = []
-    zoom = det.windows
+    configured = det.windows
     for _ in range(repeats):
         for img in images:
             t0 = time.perf_counter()
@@ -69,7 +69,7 @@ def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None,
             t0 = time.perf_counter()
             det.detect(img)
             samples["whole_frame"].append((time.perf_counter() - t0) * 1e3)
-            det.windows = zoom
+            det.windows = configured
             n_dets.append(len(d))
     cases = {k: case(v) for k, v in samples.items()}
     ms = {k: c["ms_median"] for k, c in cases.items()}

@@ -28,6 +28,23 @@ MIN_MATCH_SIZE_PX = 8.0
 DONT_CARE_IOA = 0.5
 
 
+def _pairs(
+    a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None, min_size: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Boxes ``a`` (N, 4) and ``b`` (M, 4) as float, NaN-free and grown to ``min_size`` px, and the
+    (N, M) mask of pairs that may match: both finite and, when both class arrays are given,
+    of one class."""
+    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
+    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
+    valid = np.all(np.isfinite(a), axis=1)[:, None] & np.all(np.isfinite(b), axis=1)[None, :]
+    if a_cls is not None and b_cls is not None:
+        valid &= np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :]
+    a, b = np.nan_to_num(a), np.nan_to_num(b)
+    if min_size > 0:
+        a, b = grow_boxes(a, min_size), grow_boxes(b, min_size)
+    return a, b, valid
+
+
 def class_iou(
     a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None,
     min_size: float = MIN_MATCH_SIZE_PX,
@@ -35,16 +52,8 @@ def class_iou(
     """IoU (N, M) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4), each grown to at least
     ``min_size`` px (see ``MIN_MATCH_SIZE_PX``); 0 where a box is NaN or, when both
     class arrays are given, where the classes differ."""
-    a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
-    b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    a_safe, b_safe = np.nan_to_num(a), np.nan_to_num(b)
-    if min_size > 0:
-        a_safe, b_safe = grow_boxes(a_safe, min_size), grow_boxes(b_safe, min_size)
-    iou = iou_matrix(a_safe, b_safe)
-    valid = np.all(np.isfinite(a), axis=1)[:, None] & np.all(np.isfinite(b), axis=1)[None, :]
-    if a_cls is not None and b_cls is not None:
-        valid &= np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :]
-    return np.where(valid, iou, 0.0)
+    a, b, valid = _pairs(a, a_cls, b, b_cls, min_size)
+    return np.where(valid, iou_matrix(a, b), 0.0)
 
 
 def dont_care_hits(
@@ -55,13 +64,9 @@ def dont_care_hits(
     when both class arrays are given): IoU >= ``IOU_THRESHOLD``, or at least
     ``DONT_CARE_IOA`` of the box inside it (a car's roof seen over the car in front);
     boxes grown to ``min_size`` px first, as for ``class_iou``."""
-    iou = class_iou(a, a_cls, b, b_cls, min_size)
-    a = np.nan_to_num(np.asarray(a, dtype=np.float64).reshape(-1, 4))
-    b = np.nan_to_num(np.asarray(b, dtype=np.float64).reshape(-1, 4))
-    if min_size > 0:
-        a, b = grow_boxes(a, min_size), grow_boxes(b, min_size)
-    inside = np.where(iou > 0, ioa_matrix(a, b), 0.0)  # iou is 0 for NaN boxes and other classes
-    return np.any(iou >= IOU_THRESHOLD, axis=1) | np.any(inside >= DONT_CARE_IOA, axis=1)
+    a, b, valid = _pairs(a, a_cls, b, b_cls, min_size)
+    hit = (iou_matrix(a, b) >= IOU_THRESHOLD) | (ioa_matrix(a, b) >= DONT_CARE_IOA)
+    return np.any(valid & hit, axis=1)
 
 
 def greedy_match(iou: np.ndarray, order: np.ndarray, threshold: float = IOU_THRESHOLD) -> np.ndarray:
