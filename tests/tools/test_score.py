@@ -168,6 +168,25 @@ def test_a_detection_of_the_visible_part_of_a_mostly_hidden_object_is_ignored(tm
     assert (m["tp"], m["fp"], m["ignored"]) == (1, 2, 1)
 
 
+def test_a_detection_that_is_a_dont_care_object_is_ignored_whatever_its_class(tmp_path):
+    # A cyclist 8 px high (under the evaluated 10 px) called a pedestrian: the box is that
+    # object, whose class is not scored, so the box is ignored. A pedestrian box lying
+    # inside a don't-care car's box without matching it stays an FP (the inside test is
+    # per class), and so does a car box on a static obstacle (no detection class).
+    far = {"id": 3, "cls": 1, "box": [300, 100, 304, 108]}
+    car = {"id": 4, "cls": CAR, "box": [400, 100, 460, 140], "vf": 0.3}
+    cone = {"id": 5, "cls": -1, "box": [500, 100, 510, 120]}
+    run = write_run(tmp_path / "r", [{
+        "ground_truth": gt({"id": 1, "cls": PED, "box": A}, far, car, cone),
+        "detections": dets(
+            (A, 0.9, PED), ([300, 100, 304, 108], 0.8, PED), ([420, 110, 430, 130], 0.7, PED),
+            ([500, 100, 510, 120], 0.6, CAR),
+        ),
+    }])
+    m = score_run(run)["detection"]
+    assert (m["tp"], m["fp"], m["ignored"]) == (1, 2, 1)
+
+
 # --- tracking -------------------------------------------------------------------
 
 
@@ -205,7 +224,7 @@ def test_tracking_by_hand(tmp_path):
 
 def test_tracking_dont_care_and_class_aware(tmp_path):
     occluded = {"id": 3, "cls": PED, "box": [200, 0, 210, 20], "vf": 0.3}
-    on_dont_care = {"id": 12, "box": [200, 0, 210, 20], "cls": PED}  # removed, not FP
+    on_dont_care = {"id": 12, "box": [200, 0, 210, 20], "cls": 1}  # removed, not FP, whatever its class
     frames = tracking_frames(extra_gt=(occluded,), extra_tracks=(on_dont_care,))
     # frame 0: the car tracked with the wrong class -> one FP and one FN
     frames[0]["tracks"] = tracks({"id": 7, "box": A, "cls": PED}, {"id": 13, "box": B, "cls": PED})

@@ -2,9 +2,9 @@
 
 Evaluated ground truth: objects of the eight classes at range ``RANGE_M`` (5-50 m)
 with visible fraction >= ``MIN_VISIBLE`` (0.5) -- the issue's acceptance set. Every
-other labelled object is *don't care*: a detection of it (same class, IoU >= 0.5 or
-at least half the detection inside its box, ``matching.dont_care_hits``, KITTI's
-DontCare rule) is neither a true nor a false positive. Matching per image and class is
+other labelled object is *don't care*: a detection of it (IoU >= 0.5, whatever the
+class, or at least half the detection inside the box of one of its class,
+``matching.dont_care_hits``, KITTI's DontCare rule) is neither a true nor a false positive. Matching per image and class is
 greedy by score at IoU >= 0.5 (``tools.scoring.matching``; boxes smaller than
 ``min_size`` px, by default ``MIN_MATCH_SIZE_PX`` = 8, are grown to it first, 0 gives
 plain IoU); AP is the all-point interpolated AP of

@@ -5,8 +5,9 @@ Which ground truth counts (per frame, on the GT *visible* box):
                   no detection class), ``visible_fraction >= MIN_VISIBLE_FRACTION``
                   (0.5) and visible box height ``>= MIN_BOX_HEIGHT_PX`` (10 px);
     don't care -- visible but failing one of those; a detection that matches no
-                  evaluated GT but is of a don't-care GT of its class -- IoU >= 0.5,
-                  or at least half of it inside that GT's box
+                  evaluated GT but is of a don't-care GT -- IoU >= 0.5 with one of
+                  any detection class (its class is out of scope with it), or at
+                  least half of it inside the box of one of its own class
                   (``matching.dont_care_hits``) -- is ignored (neither TP nor FP;
                   any number of them, as KITTI's DontCare regions);
     invisible GT (no visible box) is neither.

@@ -12,8 +12,10 @@ Constants:
         by centre distance for the same reason). The tracker associates the same way
         (``TrackerConfig.min_match_size``). 0 restores plain IoU.
     DONT_CARE_IOA = 0.5 -- a detection is of a don't-care object (``dont_care_hits``)
-        when at least half its area lies inside the object's box, as KITTI's DontCare
-        rule has it (intersection over the detection's area), or it matches the box.
+        when it matches the object's box, whatever its class (the object's class is not
+        scored), or when at least half its area lies inside the box of a don't-care
+        object of its class, as KITTI's DontCare rule has it (intersection over the
+        detection's area: a car's roof seen over the car in front).
 """
 
 from __future__ import annotations
@@ -28,21 +30,23 @@ MIN_MATCH_SIZE_PX = 8.0
 DONT_CARE_IOA = 0.5
 
 
-def _pairs(
-    a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None, min_size: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _pairs(a: np.ndarray, b: np.ndarray, min_size: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Boxes ``a`` (N, 4) and ``b`` (M, 4) as float, NaN-free and grown to ``min_size`` px, and the
-    (N, M) mask of pairs that may match: both finite and, when both class arrays are given,
-    of one class."""
+    (N, M) mask of pairs of finite boxes."""
     a = np.asarray(a, dtype=np.float64).reshape(-1, 4)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
-    valid = np.all(np.isfinite(a), axis=1)[:, None] & np.all(np.isfinite(b), axis=1)[None, :]
-    if a_cls is not None and b_cls is not None:
-        valid &= np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :]
+    finite = np.all(np.isfinite(a), axis=1)[:, None] & np.all(np.isfinite(b), axis=1)[None, :]
     a, b = np.nan_to_num(a), np.nan_to_num(b)
     if min_size > 0:
         a, b = grow_boxes(a, min_size), grow_boxes(b, min_size)
-    return a, b, valid
+    return a, b, finite
+
+
+def _one_class(pairs: np.ndarray, a_cls: np.ndarray | None, b_cls: np.ndarray | None) -> np.ndarray:
+    """The pairs (N, M) mask narrowed to pairs of one class when both class arrays are given."""
+    if a_cls is None or b_cls is None:
+        return pairs
+    return pairs & (np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :])
 
 
 def class_iou(
@@ -52,21 +56,40 @@ def class_iou(
     """IoU (N, M) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4), each grown to at least
     ``min_size`` px (see ``MIN_MATCH_SIZE_PX``); 0 where a box is NaN or, when both
     class arrays are given, where the classes differ."""
-    a, b, valid = _pairs(a, a_cls, b, b_cls, min_size)
-    return np.where(valid, iou_matrix(a, b), 0.0)
+    a, b, finite = _pairs(a, b, min_size)
+    return np.where(_one_class(finite, a_cls, b_cls), iou_matrix(a, b), 0.0)
+
+
+def _of_a_detection_class(pairs: np.ndarray, a_cls: np.ndarray | None, b_cls: np.ndarray | None) -> np.ndarray:
+    """The pairs (N, M) mask narrowed to boxes ``b`` of a detection class (``b_cls`` >= 0), whatever
+    the class of ``a``, when both class arrays are given."""
+    if a_cls is None or b_cls is None:
+        return pairs
+    return pairs & (np.asarray(b_cls) >= 0)[None, :]
+
+
+def dont_care_iou(
+    a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None,
+    min_size: float = MIN_MATCH_SIZE_PX,
+) -> np.ndarray:
+    """IoU (N, M) of boxes ``a`` with don't-care boxes ``b``, as ``class_iou`` but whatever
+    the classes, as long as ``b`` is of a detection class (``b_cls`` >= 0; 0 for a static
+    obstacle): a box that is an object out of scope is out of scope for its class too."""
+    a, b, finite = _pairs(a, b, min_size)
+    return np.where(_of_a_detection_class(finite, a_cls, b_cls), iou_matrix(a, b), 0.0)
 
 
 def dont_care_hits(
     a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None,
     min_size: float = MIN_MATCH_SIZE_PX,
 ) -> np.ndarray:
-    """(N,) mask of boxes ``a`` that are of one of the don't-care boxes ``b`` (of their class
-    when both class arrays are given): IoU >= ``IOU_THRESHOLD``, or at least
-    ``DONT_CARE_IOA`` of the box inside it (a car's roof seen over the car in front);
-    boxes grown to ``min_size`` px first, as for ``class_iou``."""
-    a, b, valid = _pairs(a, a_cls, b, b_cls, min_size)
-    hit = (iou_matrix(a, b) >= IOU_THRESHOLD) | (ioa_matrix(a, b) >= DONT_CARE_IOA)
-    return np.any(valid & hit, axis=1)
+    """(N,) mask of boxes ``a`` that are of one of the don't-care boxes ``b`` (module docstring):
+    ``dont_care_iou`` >= ``IOU_THRESHOLD``, or at least ``DONT_CARE_IOA`` of the box inside
+    one of its own class (any, without classes). Boxes are grown to ``min_size`` px first."""
+    a, b, finite = _pairs(a, b, min_size)
+    matches = _of_a_detection_class(finite, a_cls, b_cls) & (iou_matrix(a, b) >= IOU_THRESHOLD)
+    inside = _one_class(finite, a_cls, b_cls) & (ioa_matrix(a, b) >= DONT_CARE_IOA)
+    return np.any(matches | inside, axis=1)
 
 
 def greedy_match(iou: np.ndarray, order: np.ndarray, threshold: float = IOU_THRESHOLD) -> np.ndarray:
