@@ -499,6 +499,32 @@ def train_detector(
     print(f"{out}: {result['images']} images, {result['seconds']:.0f} s, last epoch {last}")
 
 
+@app.command("soup-detector")
+@user_errors
+def soup_detector(
+    checkpoints: Annotated[list[Path], typer.Argument(help="checkpoints (.pt written beside a trained model), one "
+                                                      "fine-tuned from another")],
+    out: Annotated[Path, typer.Option("--out", help="ONNX model to write (its .pt beside it)")],
+    weights: Annotated[str | None, typer.Option("--weights", help="one per checkpoint, comma-separated, e.g. 0.5,0.5 "
+                                                "(normalised to sum 1; default equal)")] = None,
+) -> None:
+    """Average the weights of detector checkpoints (a model soup) and export the ONNX model."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        console.print("[bold red]error:[/] soup-detector needs torch: pip install -e '.[train]'", markup=True)
+        raise typer.Exit(2) from None
+    from tools.detector.soup import soup, soup_weights
+
+    try:
+        given = None if weights is None else [float(v) for v in weights.split(",")]
+        w = soup_weights(len(checkpoints), given)
+    except ValueError as e:
+        raise typer.BadParameter(f"--weights {weights!r}: {e}" if "--weights" not in str(e) else str(e)) from None
+    soup(checkpoints, out, w)
+    print(f"{out}: " + ", ".join(f"{p} x {wi:.3f}" for p, wi in zip(checkpoints, w, strict=True)))
+
+
 @app.command("eval-detector")
 @user_errors
 def eval_detector(

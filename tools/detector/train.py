@@ -142,16 +142,21 @@ def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, 
     return path
 
 
-def model_metadata(cfg: TrainConfig, data: str, extra: dict | None = None) -> dict[str, str]:
+def model_metadata(cfg: TrainConfig | None, data: str | None, extra: dict | None = None) -> dict[str, str]:
+    """The exported model's metadata: what ``OnnxDetector`` reads (names, stride, imgsz), and how
+    it was made (the training data and configuration, when trained; ``extra``)."""
     from importlib import metadata as md
 
     names = {i: n for i, n in enumerate(CLASSES)}
     meta = {
         "names": str(names), "stride": "4", "imgsz": "[384, 640]", "task": "detect",
         "description": "lookahead CenterDet (stride-4 CenterNet head, YOLOv8 output layout)",
-        "lookahead_version": md.version("lookahead"), "train_data": data,
-        "train_config": json.dumps(asdict(cfg)),
+        "lookahead_version": md.version("lookahead"),
     }
+    if data is not None:
+        meta["train_data"] = data
+    if cfg is not None:
+        meta["train_config"] = json.dumps(asdict(cfg))
     meta.update({k: str(v) for k, v in (extra or {}).items()})
     return meta
 
