@@ -520,7 +520,7 @@ def soup_detector(
         given = None if weights is None else [float(v) for v in weights.split(",")]
         w = soup_weights(len(checkpoints), given)
     except ValueError as e:
-        raise typer.BadParameter(f"--weights {weights!r}: {e}" if "--weights" not in str(e) else str(e)) from None
+        raise typer.BadParameter(f"--weights {weights!r}: {e}") from None
     soup(checkpoints, out, w)
     print(f"{out}: " + ", ".join(f"{p} x {wi:.3f}" for p, wi in zip(checkpoints, w, strict=True)))
 

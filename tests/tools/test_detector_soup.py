@@ -66,7 +66,7 @@ def test_checkpoints_of_different_architectures_cannot_be_averaged(tmp_path):
     _checkpoint(tmp_path / "wide.pt", 2, {**SMALL, "head": 16})
     with pytest.raises(ArchitectureError, match="differs"):
         average_checkpoints([tmp_path / "a.pt", tmp_path / "wide.pt"])
-    with pytest.raises(ValueError, match="one per checkpoint"):
+    with pytest.raises(ValueError, match="one weight per checkpoint"):
         soup_weights(2, [1.0])
     with pytest.raises(ValueError, match="non-negative"):
         soup_weights(2, [1.0, -1.0])

@@ -8,7 +8,7 @@ way). Every floating-point tensor of the state dicts is averaged -- weights, bia
 BatchNorm running statistics alike; integer counters are taken from the last checkpoint.
 Checkpoints of different architectures cannot be averaged (``ArchitectureError``).
 
-``lookahead soup-detector A.pt B.pt --weights 0.5 0.5 --out SOUP.onnx`` writes the ONNX
+``lookahead soup-detector A.pt B.pt --weights 0.65,0.35 --out SOUP.onnx`` writes the ONNX
 model (and ``SOUP.pt`` beside it, to fine-tune or average further).
 """
 
@@ -29,9 +29,9 @@ def soup_weights(n: int, weights: Sequence[float] | None) -> list[float]:
         return [1.0 / n] * n
     w = [float(v) for v in weights]
     if len(w) != n:
-        raise ValueError(f"--weights: one per checkpoint expected, got {len(w)} for {n}")
+        raise ValueError(f"one weight per checkpoint expected, got {len(w)} for {n}")
     if any(not math.isfinite(v) or v < 0 for v in w) or sum(w) <= 0:
-        raise ValueError(f"--weights: non-negative numbers with a positive sum expected, got {w}")
+        raise ValueError(f"non-negative weights with a positive sum expected, got {w}")
     total = sum(w)
     return [v / total for v in w]
 
