@@ -4,6 +4,37 @@ from __future__ import annotations
 
 import numpy as np
 
+#: up to this many boxes, the pairwise overlaps are computed at once (an N x N matrix, a few
+#: numpy calls) and the greedy pass only reads it; above it, one box's row at a time.
+MATRIX_MAX = 512
+
+
+def _nms_matrix(
+    boxes: np.ndarray, order: np.ndarray, iou_threshold: float, max_det: int, ioa_threshold: float | None,
+) -> np.ndarray:
+    """``nms`` on ``boxes`` already sorted best first (``order``: their input indices), with the
+    same arithmetic as the row-at-a-time loop, so the same boxes are kept."""
+    x0, y0, x1, y1 = boxes.T
+    area = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    w = np.clip(np.minimum(x1[:, None], x1) - np.maximum(x0[:, None], x0), 0, None)
+    h = np.clip(np.minimum(y1[:, None], y1) - np.maximum(y0[:, None], y0), 0, None)
+    inter = w * h
+    union = area[:, None] + area - inter
+    with np.errstate(divide="ignore", invalid="ignore"):
+        drop = np.where(union > 0, inter / union, 0.0) > iou_threshold
+        if ioa_threshold is not None:
+            drop |= np.where(area > 0, inter / area, 0.0) > ioa_threshold  # [i, j]: of j's area
+    removed = np.zeros(len(boxes), dtype=bool)
+    keep: list[int] = []
+    for i in range(len(boxes)):
+        if removed[i]:
+            continue
+        keep.append(i)
+        if len(keep) == max_det:
+            break
+        removed |= drop[i]
+    return order[np.asarray(keep, dtype=np.int64)]
+
 
 def nms(
     xyxy: np.ndarray,
@@ -46,9 +77,11 @@ def nms(
         lo = boxes.min()
         span = boxes.max() - lo + 1.0
         boxes = boxes - lo + (dense.astype(np.float64) * span)[:, None]
+    order = np.argsort(-scores, kind="stable")
+    if n <= MATRIX_MAX:
+        return _nms_matrix(boxes[order], order, iou_threshold, max_det, ioa_threshold)
     x0, y0, x1, y1 = boxes.T
     area = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    order = np.argsort(-scores, kind="stable")
     keep: list[int] = []
     while order.size and len(keep) < max_det:
         i = order[0]

@@ -70,3 +70,28 @@ def test_a_part_inside_a_better_box_of_its_class_is_dropped_with_a_containment_t
     assert nms(xyxy, score, cls, 0.45, ioa_threshold=0.8).tolist() == [0, 2]
     # the part scoring higher than the whole keeps both: the whole is not inside the part
     assert nms(xyxy, np.array([0.4, 0.5, 0.4]), cls, 0.45, ioa_threshold=0.8).tolist() == [1, 0, 2]
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_matrix_and_the_row_at_a_time_passes_keep_the_same_boxes(seed: int, monkeypatch) -> None:
+    import perception.nms as nms_module
+
+    rng = np.random.default_rng(seed)
+    n = 300
+    xyxy, score, cls = _clustered(rng, n), rng.random(n).round(2), rng.integers(0, 3, n)  # rounded: ties
+    for ioa in (None, 0.8):
+        matrix = nms(xyxy, score, cls, 0.45, 100, ioa)
+        with monkeypatch.context() as m:
+            m.setattr(nms_module, "MATRIX_MAX", 0)
+            rows = nms(xyxy, score, cls, 0.45, 100, ioa)
+        assert matrix.tolist() == rows.tolist()
+    assert nms(xyxy, score, cls, 0.45, 300).tolist() == _reference(xyxy, score, cls, 0.45, 300)
+
+
+def test_many_boxes_take_the_row_at_a_time_pass_and_match_the_reference() -> None:
+    from perception.nms import MATRIX_MAX
+
+    rng = np.random.default_rng(7)
+    n = MATRIX_MAX + 100
+    xyxy, score, cls = _clustered(rng, n), rng.random(n), rng.integers(0, 3, n)
+    assert nms(xyxy, score, cls, 0.5, 300).tolist() == _reference(xyxy, score, cls, 0.5, 300)
