@@ -5,35 +5,27 @@ from __future__ import annotations
 import numpy as np
 
 #: up to this many boxes, the pairwise overlaps are computed at once (an N x N matrix, a few
-#: numpy calls) and the greedy pass only reads it; above it, one box's row at a time.
+#: numpy calls) and the greedy pass only reads it; above it, one kept box's row at a time.
 MATRIX_MAX = 512
 
 
-def _nms_matrix(
-    boxes: np.ndarray, order: np.ndarray, iou_threshold: float, max_det: int, ioa_threshold: float | None,
+def _suppresses(
+    corners: tuple[np.ndarray, ...], area: np.ndarray, i: np.ndarray | int, j: np.ndarray,
+    iou_threshold: float, ioa_threshold: float | None,
 ) -> np.ndarray:
-    """``nms`` on ``boxes`` already sorted best first (``order``: their input indices), with the
-    same arithmetic as the row-at-a-time loop, so the same boxes are kept."""
-    x0, y0, x1, y1 = boxes.T
-    area = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
-    w = np.clip(np.minimum(x1[:, None], x1) - np.maximum(x0[:, None], x0), 0, None)
-    h = np.clip(np.minimum(y1[:, None], y1) - np.maximum(y0[:, None], y0), 0, None)
+    """Whether box ``i`` suppresses box ``j`` (indices broadcast: one row, or (N, 1) against
+    (N,) for every pair): IoU above ``iou_threshold``, or, with ``ioa_threshold``, more than
+    that fraction of ``j``'s area inside ``i``."""
+    x0, y0, x1, y1 = corners
+    w = np.clip(np.minimum(x1[i], x1[j]) - np.maximum(x0[i], x0[j]), 0, None)
+    h = np.clip(np.minimum(y1[i], y1[j]) - np.maximum(y0[i], y0[j]), 0, None)
     inter = w * h
-    union = area[:, None] + area - inter
+    union = area[i] + area[j] - inter
     with np.errstate(divide="ignore", invalid="ignore"):
         drop = np.where(union > 0, inter / union, 0.0) > iou_threshold
         if ioa_threshold is not None:
-            drop |= np.where(area > 0, inter / area, 0.0) > ioa_threshold  # [i, j]: of j's area
-    removed = np.zeros(len(boxes), dtype=bool)
-    keep: list[int] = []
-    for i in range(len(boxes)):
-        if removed[i]:
-            continue
-        keep.append(i)
-        if len(keep) == max_det:
-            break
-        removed |= drop[i]
-    return order[np.asarray(keep, dtype=np.int64)]
+            drop |= np.where(area[j] > 0, inter / area[j], 0.0) > ioa_threshold
+    return drop
 
 
 def nms(
@@ -77,25 +69,25 @@ def nms(
         lo = boxes.min()
         span = boxes.max() - lo + 1.0
         boxes = boxes - lo + (dense.astype(np.float64) * span)[:, None]
-    order = np.argsort(-scores, kind="stable")
-    if n <= MATRIX_MAX:
-        return _nms_matrix(boxes[order], order, iou_threshold, max_det, ioa_threshold)
-    x0, y0, x1, y1 = boxes.T
+    corners = tuple(boxes.T)
+    x0, y0, x1, y1 = corners
     area = np.clip(x1 - x0, 0, None) * np.clip(y1 - y0, 0, None)
+    order = np.argsort(-scores, kind="stable")
     keep: list[int] = []
-    while order.size and len(keep) < max_det:
+    if n <= MATRIX_MAX:  # every pair at once; the greedy pass only reads the matrix
+        drop = _suppresses(corners, area, order[:, None], order, iou_threshold, ioa_threshold)
+        removed = np.zeros(n, dtype=bool)
+        for r in range(n):
+            if removed[r]:
+                continue
+            keep.append(int(order[r]))
+            if len(keep) == max_det:
+                break
+            removed |= drop[r]
+        return np.asarray(keep, dtype=np.int64)
+    while order.size and len(keep) < max_det:  # one row at a time
         i = order[0]
         keep.append(int(i))
         rest = order[1:]
-        w = np.clip(np.minimum(x1[i], x1[rest]) - np.maximum(x0[i], x0[rest]), 0, None)
-        h = np.clip(np.minimum(y1[i], y1[rest]) - np.maximum(y0[i], y0[rest]), 0, None)
-        inter = w * h
-        union = area[i] + area[rest] - inter
-        with np.errstate(divide="ignore", invalid="ignore"):
-            iou = np.where(union > 0, inter / union, 0.0)
-        drop = iou > iou_threshold
-        if ioa_threshold is not None:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                drop |= np.where(area[rest] > 0, inter / area[rest], 0.0) > ioa_threshold
-        order = rest[~drop]
+        order = rest[~_suppresses(corners, area, i, rest, iou_threshold, ioa_threshold)]
     return np.asarray(keep, dtype=np.int64)

@@ -451,6 +451,15 @@ def export_dataset(
     raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds))
 
 
+def _require_torch(command: str) -> None:
+    """One line and exit 2 when the extra ``train`` (torch) is not installed."""
+    try:
+        import torch  # noqa: F401
+    except ImportError:
+        console.print(f"[bold red]error:[/] {command} needs torch: pip install -e '.[train]'", markup=True)
+        raise typer.Exit(2) from None
+
+
 @app.command("train-detector")
 @user_errors
 def train_detector(
@@ -472,11 +481,7 @@ def train_detector(
     head: Annotated[int | None, typer.Option(min=1, help="head channels, stride 4 (default: the shipped model's)")] = None,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        console.print("[bold red]error:[/] train-detector needs torch: pip install -e '.[train]'", markup=True)
-        raise typer.Exit(2) from None
+    _require_torch("train-detector")
     from tools.detector.train import TrainConfig, train
 
     logging.getLogger("tools.detector").setLevel(logging.INFO)  # one line per epoch
@@ -509,11 +514,7 @@ def soup_detector(
                                                 "(normalised to sum 1; default equal)")] = None,
 ) -> None:
     """Average the weights of detector checkpoints (a model soup) and export the ONNX model."""
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        console.print("[bold red]error:[/] soup-detector needs torch: pip install -e '.[train]'", markup=True)
-        raise typer.Exit(2) from None
+    _require_torch("soup-detector")
     from tools.detector.soup import soup, soup_weights
 
     try:

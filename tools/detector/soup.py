@@ -73,12 +73,12 @@ def soup(paths: Sequence[Path], out: Path, weights: Sequence[float] | None = Non
     from tools.detector.model import CenterDet
     from tools.detector.train import export_onnx, model_metadata
 
-    state = average_checkpoints(paths, weights)
+    w = soup_weights(len(paths), weights)
+    state = average_checkpoints(paths, w)
     net = CenterDet(len(CLASSES), **architecture({k: tuple(v.shape) for k, v in state.items()}))
     net.load_state_dict(state)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)
     torch.save(net.state_dict(), out.with_suffix(".pt"))
-    recipe = [{"checkpoint": str(p), "weight": round(w, 6)} for p, w in zip(paths, soup_weights(len(paths), weights),
-                                                                          strict=True)]
+    recipe = [{"checkpoint": str(p), "weight": round(wi, 6)} for p, wi in zip(paths, w, strict=True)]
     return export_onnx(net, out, model_metadata(None, None, {"soup": json.dumps(recipe)}))

@@ -42,41 +42,32 @@ def _pairs(a: np.ndarray, b: np.ndarray, min_size: float) -> tuple[np.ndarray, n
     return a, b, finite
 
 
-def _one_class(pairs: np.ndarray, a_cls: np.ndarray | None, b_cls: np.ndarray | None) -> np.ndarray:
-    """The pairs (N, M) mask narrowed to pairs of one class when both class arrays are given."""
+def _pair_mask(
+    finite: np.ndarray, a_cls: np.ndarray | None, b_cls: np.ndarray | None, any_class: np.ndarray | None = None,
+) -> np.ndarray:
+    """The (N, M) mask of ``finite`` pairs that may match: when both class arrays are given,
+    of one class -- or, in the columns ``any_class`` (M,) marks, with ``b`` of any detection
+    class (``b_cls`` >= 0), whatever the class of ``a``."""
     if a_cls is None or b_cls is None:
-        return pairs
-    return pairs & (np.asarray(a_cls)[:, None] == np.asarray(b_cls)[None, :])
+        return finite
+    b_cls = np.asarray(b_cls)
+    ok = np.asarray(a_cls)[:, None] == b_cls[None, :]
+    if any_class is not None:
+        ok |= (np.asarray(any_class, dtype=bool) & (b_cls >= 0))[None, :]
+    return finite & ok
 
 
 def class_iou(
     a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None,
-    min_size: float = MIN_MATCH_SIZE_PX,
+    min_size: float = MIN_MATCH_SIZE_PX, any_class: np.ndarray | None = None,
 ) -> np.ndarray:
     """IoU (N, M) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4), each grown to at least
     ``min_size`` px (see ``MIN_MATCH_SIZE_PX``); 0 where a box is NaN or, when both
-    class arrays are given, where the classes differ."""
+    class arrays are given, where the classes differ -- except in the columns ``any_class``
+    (M,) marks (don't-care objects, whose class is out of scope with them), where any box
+    of a detection class matches."""
     a, b, finite = _pairs(a, b, min_size)
-    return np.where(_one_class(finite, a_cls, b_cls), iou_matrix(a, b), 0.0)
-
-
-def _of_a_detection_class(pairs: np.ndarray, a_cls: np.ndarray | None, b_cls: np.ndarray | None) -> np.ndarray:
-    """The pairs (N, M) mask narrowed to boxes ``b`` of a detection class (``b_cls`` >= 0), whatever
-    the class of ``a``, when both class arrays are given."""
-    if a_cls is None or b_cls is None:
-        return pairs
-    return pairs & (np.asarray(b_cls) >= 0)[None, :]
-
-
-def dont_care_iou(
-    a: np.ndarray, a_cls: np.ndarray | None, b: np.ndarray, b_cls: np.ndarray | None,
-    min_size: float = MIN_MATCH_SIZE_PX,
-) -> np.ndarray:
-    """IoU (N, M) of boxes ``a`` with don't-care boxes ``b``, as ``class_iou`` but whatever
-    the classes, as long as ``b`` is of a detection class (``b_cls`` >= 0; 0 for a static
-    obstacle): a box that is an object out of scope is out of scope for its class too."""
-    a, b, finite = _pairs(a, b, min_size)
-    return np.where(_of_a_detection_class(finite, a_cls, b_cls), iou_matrix(a, b), 0.0)
+    return np.where(_pair_mask(finite, a_cls, b_cls, any_class), iou_matrix(a, b), 0.0)
 
 
 def dont_care_hits(
@@ -84,11 +75,12 @@ def dont_care_hits(
     min_size: float = MIN_MATCH_SIZE_PX,
 ) -> np.ndarray:
     """(N,) mask of boxes ``a`` that are of one of the don't-care boxes ``b`` (module docstring):
-    ``dont_care_iou`` >= ``IOU_THRESHOLD``, or at least ``DONT_CARE_IOA`` of the box inside
-    one of its own class (any, without classes). Boxes are grown to ``min_size`` px first."""
+    IoU >= ``IOU_THRESHOLD`` with one of a detection class, whatever the class of ``a``, or
+    at least ``DONT_CARE_IOA`` of the box inside one of its own class (any, without classes).
+    Boxes are grown to ``min_size`` px first."""
     a, b, finite = _pairs(a, b, min_size)
-    matches = _of_a_detection_class(finite, a_cls, b_cls) & (iou_matrix(a, b) >= IOU_THRESHOLD)
-    inside = _one_class(finite, a_cls, b_cls) & (ioa_matrix(a, b) >= DONT_CARE_IOA)
+    matches = _pair_mask(finite, a_cls, b_cls, np.ones(len(b), dtype=bool)) & (iou_matrix(a, b) >= IOU_THRESHOLD)
+    inside = _pair_mask(finite, a_cls, b_cls) & (ioa_matrix(a, b) >= DONT_CARE_IOA)
     return np.any(matches | inside, axis=1)
 
 

@@ -9,7 +9,7 @@ Inputs, per frame (MOT frame = position in ``ticks.jsonl`` + 1):
         is a false positive). Tentative tracks are never output, hence never scored.
 Don't-care GT (visible but not evaluated) is removed, and so is every reported
 track that a one-to-one Hungarian matching (IoU >= 0.5; same class with evaluated GT,
-any class with don't-care GT of a detection class, ``matching.dont_care_iou``) pairs
+any class with don't-care GT of a detection class, ``matching.class_iou``'s ``any_class``) pairs
 with a don't-care GT box -- TrackEval's MOT16 distractor rule, done here before calling
 ``tools.mot_eval.evaluate_mot`` (which then runs with its preprocessing off).
 
@@ -31,7 +31,7 @@ import numpy as np
 from tools.mot_eval import evaluate_mot
 from tools.scoring.detection import gt_selection
 from tools.scoring.io import GTFrame, RunData, TrackFrame
-from tools.scoring.matching import MIN_MATCH_SIZE_PX, class_iou, dont_care_iou, hungarian_match
+from tools.scoring.matching import MIN_MATCH_SIZE_PX, class_iou, hungarian_match
 
 CLASS_SHIFT_PX = 1e5
 
@@ -51,9 +51,7 @@ def frame_rows(frame: int, gt: GTFrame, tracks: TrackFrame) -> tuple[np.ndarray,
     evaluated, dont_care = gt_selection(gt)
     trk = tracks[tracks.reported]
     shown = evaluated | dont_care
-    box, cls = gt.visible[shown], gt.class_id[shown]
-    iou = np.where(dont_care[shown][None, :], dont_care_iou(trk.xyxy, trk.class_id, box, cls),
-                   class_iou(trk.xyxy, trk.class_id, box, cls))
+    iou = class_iou(trk.xyxy, trk.class_id, gt.visible[shown], gt.class_id[shown], any_class=dont_care[shown])
     rows, cols = hungarian_match(iou)
     on_dont_care = rows[dont_care[shown][cols]]
     keep = np.ones(len(trk.track_id), dtype=bool)
