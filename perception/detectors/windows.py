@@ -12,14 +12,18 @@ a fixed input caps the zoom at what fits. Distant objects -- a pedestrian at 40 
 3 px wide -- are what a detector at 640 x 360 misses most, and magnified 2x they cover
 four times the pixels.
 
-Merging (``merge_windows``): each object is left to the one view that sees it at a good
+Merging (``merge_windows``): each object is left to the view that sees it at a good
 scale (as SNIP trains and tests each scale of an image pyramid on the objects of its
-valid range). A box is *the window's* when it is interior to the window -- each side at
-least ``EDGE_PX`` inside the window's edge, or that edge is the image's own -- and
-shorter than ``MAX_HEIGHT_FRACTION`` of the window's height: small, whole, magnified.
-Window detections that are not the window's are dropped (cut by it, or big enough for
-the whole frame); whole-frame detections that are the window's are dropped (it saw them
-magnified); per-class NMS over the rest resolves overlapping windows.
+valid range). A window *keeps* its boxes that are interior to it -- each side at least
+``EDGE_PX`` inside the window's edge, or that edge is the image's own -- and shorter than
+``KEEP_HEIGHT_FRACTION`` of its height: small, whole, magnified; it drops the rest (cut by
+it, or big enough for the whole frame). The whole frame *gives way* -- drops its box --
+only where the window surely keeps it: at least ``GIVE_WAY_EDGE_PX`` inside and shorter
+than ``MAX_HEIGHT_FRACTION``. The two tests overlap on purpose (hysteresis): the two
+views box one object a few pixels apart, and with a single line between them a car the
+whole frame boxed 47 px tall and the window 49 px, or 4 px inside the window and on its
+edge, was dropped by both. In the overlap both boxes stay and per-class NMS keeps one,
+as it resolves overlapping windows.
 """
 
 from __future__ import annotations
@@ -38,9 +42,16 @@ DEFAULT_WINDOWS: tuple[tuple[float, float, float, float], ...] = ((0.25, 2 / 9, 
 #: A box this close (px) to a window edge inside the image counts as cut by the window.
 EDGE_PX = 1.0
 
-#: Objects at least this fraction of a window's height tall are the whole frame's (48 px of the
-#: default window's 192 at 640 x 360; 96 px of the model's input once magnified).
+#: A less magnified view gives a box up to a window only at least this far (px) inside its edge.
+GIVE_WAY_EDGE_PX = 7.0
+
+#: A less magnified view gives way to a window only for boxes shorter than this fraction of
+#: the window's height (48 px of the default window's 192 at 640 x 360; 96 px of the model's
+#: input once magnified).
 MAX_HEIGHT_FRACTION = 0.25
+
+#: A window keeps its boxes shorter than this fraction of its height (60 px of 192).
+KEEP_HEIGHT_FRACTION = 0.3125
 
 #: Smallest window side (px); a smaller region holds nothing worth a detector run.
 MIN_WINDOW_PX = 8
@@ -90,23 +101,36 @@ def window_pixels(windows: Sequence[Sequence[float]], width: int, height: int) -
     return px[keep]
 
 
-def interior(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -> np.ndarray:
-    """(N,) mask of boxes (image px) interior to ``window`` (px; module docstring)."""
+def interior(xyxy: np.ndarray, window: np.ndarray, width: int, height: int, edge_px: float = EDGE_PX) -> np.ndarray:
+    """(N,) mask of boxes (image px) each side at least ``edge_px`` inside ``window`` (px),
+    or on an edge that is the image's own (module docstring)."""
     x0, y0, x1, y1 = (float(v) for v in window)
-    lo_x = -np.inf if x0 <= 0 else x0 + EDGE_PX
-    lo_y = -np.inf if y0 <= 0 else y0 + EDGE_PX
-    hi_x = np.inf if x1 >= width else x1 - EDGE_PX
-    hi_y = np.inf if y1 >= height else y1 - EDGE_PX
+    lo_x = -np.inf if x0 <= 0 else x0 + edge_px
+    lo_y = -np.inf if y0 <= 0 else y0 + edge_px
+    hi_x = np.inf if x1 >= width else x1 - edge_px
+    hi_y = np.inf if y1 >= height else y1 - edge_px
     b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
     return (b[:, 0] >= lo_x) & (b[:, 1] >= lo_y) & (b[:, 2] <= hi_x) & (b[:, 3] <= hi_y)
 
 
-def windows_own(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -> np.ndarray:
-    """(N,) mask of boxes (image px) that are ``window``'s to detect: interior to it and
-    shorter than ``MAX_HEIGHT_FRACTION`` of its height (module docstring)."""
+def _within(xyxy: np.ndarray, window: np.ndarray, width: int, height: int, edge_px: float,
+            height_fraction: float) -> np.ndarray:
     b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
-    small = b[:, 3] - b[:, 1] < MAX_HEIGHT_FRACTION * float(window[3] - window[1])
-    return small & interior(b, window, width, height)
+    small = b[:, 3] - b[:, 1] < height_fraction * float(window[3] - window[1])
+    return small & interior(b, window, width, height, edge_px)
+
+
+def window_keeps(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(N,) mask of a window's own boxes (image px) it keeps: interior to it and shorter
+    than ``KEEP_HEIGHT_FRACTION`` of its height (module docstring)."""
+    return _within(xyxy, window, width, height, EDGE_PX, KEEP_HEIGHT_FRACTION)
+
+
+def gives_way(xyxy: np.ndarray, window: np.ndarray, width: int, height: int) -> np.ndarray:
+    """(N,) mask of a less magnified view's boxes (image px) that it leaves to ``window``:
+    ``GIVE_WAY_EDGE_PX`` inside it and shorter than ``MAX_HEIGHT_FRACTION`` of its height
+    (module docstring)."""
+    return _within(xyxy, window, width, height, GIVE_WAY_EDGE_PX, MAX_HEIGHT_FRACTION)
 
 
 def merge_windows(
@@ -118,17 +142,17 @@ def merge_windows(
     (module docstring), highest score first.
 
     ``magnification`` (K,): how much each window's view magnifies the image (its letterbox
-    scale); a box a window owns is dropped from every less magnified view, so nested windows
+    scale); a box a window takes is dropped from every less magnified view, so nested windows
     hand each object to the most magnified view that holds it whole. Default: all windows
     magnify alike and only the whole frame gives way to them. ``ioa_threshold``: as ``nms``'s."""
     mag = np.ones(len(views)) if magnification is None else np.asarray(magnification, dtype=np.float64)
-    owned_frame = [windows_own(frame.xyxy, win, width, height) for win in windows_px]
-    keep_frame = ~np.any(owned_frame, axis=0) if len(views) else np.ones(len(frame), dtype=bool)
+    given = [gives_way(frame.xyxy, win, width, height) for win in windows_px]
+    keep_frame = ~np.any(given, axis=0) if len(views) else np.ones(len(frame), dtype=bool)
     parts = [frame[keep_frame]]
     for k, (dets, win) in enumerate(zip(views, windows_px, strict=True)):
-        keep = windows_own(dets.xyxy, win, width, height)
+        keep = window_keeps(dets.xyxy, win, width, height)
         for j in np.flatnonzero(mag > mag[k]):
-            keep &= ~windows_own(dets.xyxy, windows_px[j], width, height)
+            keep &= ~gives_way(dets.xyxy, windows_px[j], width, height)
         parts.append(dets[keep])
     xyxy = np.concatenate([p.xyxy for p in parts])
     score = np.concatenate([p.score for p in parts])

@@ -8,6 +8,7 @@ import pytest
 from perception.detections import Detections
 from perception.detectors.windows import (
     DEFAULT_WINDOWS,
+    KEEP_HEIGHT_FRACTION,
     MAX_HEIGHT_FRACTION,
     check_windows,
     interior,
@@ -53,23 +54,41 @@ def test_a_box_is_interior_unless_it_comes_within_a_pixel_of_a_window_edge_insid
 
 def test_small_objects_inside_a_window_are_the_windows_the_rest_the_whole_frames():
     assert MAX_HEIGHT_FRACTION * (WIN[3] - WIN[1]) == 48  # px
+    assert KEEP_HEIGHT_FRACTION * (WIN[3] - WIN[1]) == 60  # px
     frame = dets(
         (300, 150, 306, 170, 0.6, 0),  # small, inside the window: replaced
         (10, 200, 90, 260, 0.9, 4),  # outside: kept
         (440, 120, 560, 220, 0.8, 4),  # across the window's right edge: kept
-        (200, 100, 260, 150, 0.85, 4),  # inside, but 50 px tall: kept
+        (200, 100, 260, 170, 0.85, 4),  # inside, but 70 px tall: kept
     )
     window = dets(
         (300.5, 151, 305.5, 169, 0.7, 0),  # the small one, better boxed
         (320, 140, 328, 160, 0.4, 1),  # one the whole frame missed
         (440, 120, 480, 220, 0.9, 4),  # the cut one, cut by the window's edge: dropped
-        (201, 101, 259, 149, 0.95, 4),  # the 50 px one: the whole frame's, dropped
+        (201, 101, 259, 169, 0.95, 4),  # the 70 px one: the whole frame's, dropped
     )
     merged = merge_windows(frame, [window], WIN[None], W, H, 0.45, 300)
     assert merged.xyxy.tolist() == [
-        [10, 200, 90, 260], [200, 100, 260, 150], [440, 120, 560, 220], [300.5, 151, 305.5, 169], [320, 140, 328, 160]
+        [10, 200, 90, 260], [200, 100, 260, 170], [440, 120, 560, 220], [300.5, 151, 305.5, 169], [320, 140, 328, 160]
     ]
     assert merged.score.tolist() == [0.9, 0.85, 0.8, 0.7, 0.4]
+
+
+@pytest.mark.parametrize(
+    ("frame_box", "window_box"),
+    [
+        # the whole frame boxes the car 47 px tall (the window's to take), the window 49 px
+        ((325, 146, 387, 193), (326, 145, 388, 194)),
+        # the whole frame's box is 4 px inside the window, the window's on its edge
+        ((164.3, 161.5, 254.3, 208.8), (160.0, 161.8, 256.8, 209.0)),
+    ],
+)
+def test_an_object_the_two_views_box_either_side_of_the_hand_off_is_kept_once(frame_box, window_box):
+    # One line between the views dropped both boxes of these cars (clear test split).
+    frame = dets((*frame_box, 0.9, 4))
+    window = dets((*window_box, 0.8, 4))
+    merged = merge_windows(frame, [window], WIN[None], W, H, 0.45, 300)
+    assert len(merged) == 1 and merged.xyxy[0].tolist() in (list(frame_box), list(window_box))
 
 
 def test_overlapping_windows_do_not_double_an_object():
