@@ -348,3 +348,30 @@ def test_a_reversed_scale_range_is_one_line_and_exit_2(tiny_dataset, tmp_path):
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
                                    "--scale", "2", "1"])
     assert res.exit_code == 2 and "--scale: LO <= HI expected" in res.output and "Traceback" not in res.output
+
+
+def test_a_run_from_an_exported_model_keeps_its_start_to_average_with(tiny_dataset, tmp_path):
+    # the unfolded start (.init.pt) computes the exported model's function; a soup of it and
+    # the run's own weights at (1, 0) is the start again
+    import onnxruntime as ort
+
+    from tools.detector.soup import average_checkpoints
+    from tools.detector.train import export_onnx, init_checkpoint
+
+    cfg = {"epochs": 1, "batch": 2, "warmup_steps": 1, "eval_every": 0}
+    first = tmp_path / "first.onnx"
+    train(tiny_dataset, first, TrainConfig(**cfg))
+    assert not init_checkpoint(first).exists()  # a run from random weights has no start to keep
+    second = tmp_path / "second.onnx"
+    train(tiny_dataset, second, TrainConfig(**cfg, init=str(first), seed=1))
+    start = torch.load(init_checkpoint(second), weights_only=True)
+    assert init_checkpoint(second) == tmp_path / "second.init.pt"
+    net = CenterDet()
+    net.load_state_dict(average_checkpoints([init_checkpoint(second), tmp_path / "second.pt"], [1.0, 0.0]))
+    again = export_onnx(net.eval(), tmp_path / "again.onnx", {})
+    x = np.random.default_rng(0).uniform(0, 1, (1, 3, 384, 640)).astype(np.float32)
+    a = ort.InferenceSession(str(first)).run(None, {"images": x})[0]
+    b = ort.InferenceSession(str(again)).run(None, {"images": x})[0]
+    np.testing.assert_allclose(b[0, :4], a[0, :4], atol=0.05)  # boxes, px
+    assert np.mean(np.abs(b[0, 4:] - a[0, 4:]) > 1e-4) < 1e-3  # class scores (peak-test flips aside)
+    assert any(not torch.equal(start[k], v) for k, v in torch.load(tmp_path / "second.pt", weights_only=True).items())

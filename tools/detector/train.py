@@ -15,7 +15,9 @@ weights (thread scheduling aside, bit-exactness is not promised across machines)
 
 After every epoch the run writes, beside ``out``, the weights (``.pt``, for
 ``--init``) and its whole training state (``.state.pt``: weights, AdamW moments,
-step, the sampler's random state, the log so far). ``resume=True`` continues an
+step, the sampler's random state, the log so far); a run started from an exported
+``.onnx`` also writes the weights it started from (``.init.pt``, ``init_checkpoint``), to
+average with its own (``soup-detector``). ``resume=True`` continues an
 interrupted run from that state -- the same command with ``--resume`` -- and ends
 with the weights the uninterrupted run would have (tested); a run of several
 hours can so span several sittings.
@@ -205,6 +207,13 @@ def _save_state(path: Path, state: dict) -> None:
     tmp.replace(path)  # a crash while writing leaves the previous epoch's state
 
 
+def init_checkpoint(out: str | Path) -> Path:
+    """Where a run started from an exported ``.onnx`` saves the weights it started from
+    (BatchNorm unfolded, ``from_onnx``), so that ``soup-detector`` can average them with the
+    run's own ``.pt``: ``OUT.init.pt`` beside ``OUT.onnx``."""
+    return Path(out).with_suffix(".init.pt")
+
+
 def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
     """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower."""
     import torch
@@ -261,6 +270,8 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
     net = CenterDet(len(CLASSES), **cfg.architecture())
     if init:
         net = _initial_network(net, Path(init), cfg, sampler, len(train_split.images))
+        if Path(init).suffix == ".onnx":  # its unfolded weights: a checkpoint to average with (soup)
+            torch.save(net.state_dict(), init_checkpoint(out))
     net = net.to(memory_format=torch.channels_last)
     checkpoint = Path(out).with_suffix(".pt")  # weights after every epoch (to resume or fine-tune)
     decay = [p for n, p in net.named_parameters() if p.ndim > 1]
