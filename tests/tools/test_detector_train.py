@@ -355,8 +355,8 @@ def test_a_run_from_an_exported_model_keeps_its_start_to_average_with(tiny_datas
     # the run's own weights at (1, 0) is the start again
     import onnxruntime as ort
 
-    from tools.detector.soup import average_checkpoints
-    from tools.detector.train import export_onnx, init_checkpoint
+    from tools.detector.soup import soup
+    from tools.detector.train import init_checkpoint
 
     cfg = {"epochs": 1, "batch": 2, "warmup_steps": 1, "eval_every": 0}
     first = tmp_path / "first.onnx"
@@ -366,9 +366,7 @@ def test_a_run_from_an_exported_model_keeps_its_start_to_average_with(tiny_datas
     train(tiny_dataset, second, TrainConfig(**cfg, init=str(first), seed=1))
     start = torch.load(init_checkpoint(second), weights_only=True)
     assert init_checkpoint(second) == tmp_path / "second.init.pt"
-    net = CenterDet()
-    net.load_state_dict(average_checkpoints([init_checkpoint(second), tmp_path / "second.pt"], [1.0, 0.0]))
-    again = export_onnx(net.eval(), tmp_path / "again.onnx", {})
+    again = soup([init_checkpoint(second), tmp_path / "second.pt"], tmp_path / "again.onnx", [1.0, 0.0])
     x = np.random.default_rng(0).uniform(0, 1, (1, 3, 384, 640)).astype(np.float32)
     a = ort.InferenceSession(str(first)).run(None, {"images": x})[0]
     b = ort.InferenceSession(str(again)).run(None, {"images": x})[0]
