@@ -463,7 +463,8 @@ def _require_torch(command: str) -> None:
 @app.command("train-detector")
 @user_errors
 def train_detector(
-    data: Annotated[Path, typer.Argument(help="dataset directory with train/ (and val/) COCO splits")],
+    data: Annotated[list[Path], typer.Argument(help="dataset directory with train/ (and val/) COCO splits; "
+                                               "several: their train/ splits as one, the first one's val/")],
     out: Annotated[Path, typer.Option("--out", help="ONNX model to write")] = Path("models/lookahead-det.onnx"),
     epochs: Annotated[int, typer.Option(min=1)] = 12,
     batch: Annotated[int, typer.Option(min=1)] = 16,
@@ -479,6 +480,7 @@ def train_detector(
     widths: Annotated[tuple[int, int, int, int, int] | None, typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32 (default: the shipped model's)")] = None,
     neck: Annotated[int | None, typer.Option(min=1, help="neck channels, strides 8 and 16 (default: the shipped model's)")] = None,
     head: Annotated[int | None, typer.Option(min=1, help="head channels, stride 4 (default: the shipped model's)")] = None,
+    balance: Annotated[float, typer.Option(min=0.0, max=1.0, help="crops centre on an object of class c with weight freq(c)^-BALANCE: 0 every object alike, 1 every class alike")] = 0.5,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
     _require_torch("train-detector")
@@ -493,7 +495,8 @@ def train_detector(
         raise typer.BadParameter(f"--scale: LO <= HI expected, got {scale[0]} {scale[1]}")
     arch = {k: v for k, v in (("widths", widths), ("neck", neck), ("head", head)) if v is not None}
     cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
-                      init=None if init is None else str(init), crop=crop, scale=scale, **arch)
+                      init=None if init is None else str(init), crop=crop, scale=scale, balance=balance,
+                      **arch)
     with _progress() as prog:
         task = prog.add_task("training", total=1.0)
         result = train(data, out, cfg, progress=lambda f: prog.update(task, completed=f), resume=resume)

@@ -128,6 +128,38 @@ def test_a_split_reads_its_images_when_used_and_names_a_bad_one(tmp_path):
         load_split(tmp_path)
 
 
+def _write_split(root: Path, frames: list[np.ndarray], category: int) -> None:
+    import cv2
+
+    (root / "images").mkdir(parents=True)
+    doc = {"images": [], "annotations": [], "categories": []}
+    for i, f in enumerate(frames):
+        cv2.imwrite(str(root / "images" / f"{i}.png"), cv2.cvtColor(f, cv2.COLOR_RGB2BGR))
+        h, w = f.shape[:2]
+        doc["images"].append({"id": i + 1, "file_name": f"images/{i}.png", "height": h, "width": w})
+        doc["annotations"].append({"id": i + 1, "image_id": i + 1, "bbox": [4, 5, 10, 20], "category_id": category,
+                                   "occlusion": 0.0, "attributes": {"range_m": 12.0}})
+    (root / "annotations.json").write_text(json.dumps(doc))
+
+
+def test_several_splits_read_as_one_in_order_and_a_limit_counts_across_them(tmp_path):
+    from tools.detector.data import load_splits
+
+    rng = np.random.default_rng(1)
+    a = [rng.integers(0, 256, (36, 64, 3), dtype=np.uint8) for _ in range(2)]
+    b = [rng.integers(0, 256, (36, 64, 3), dtype=np.uint8) for _ in range(3)]
+    _write_split(tmp_path / "a", a, category=5)
+    _write_split(tmp_path / "b", b, category=8)
+    both = load_splits([tmp_path / "a", tmp_path / "b"])
+    assert len(both.images) == 5 and [c.tolist() for c in both.classes] == [[4], [4], [7], [7], [7]]
+    np.testing.assert_array_equal(both.images[2], b[0])
+    assert len(load_splits([tmp_path / "a", tmp_path / "b"], limit=3).images) == 3
+    assert len(load_splits([tmp_path / "a", tmp_path / "b"], limit=2).names) == 2  # b not needed
+    _write_split(tmp_path / "c", [np.zeros((48, 64, 3), np.uint8)], category=5)
+    with pytest.raises(ValueError, match=r"c: 64x48 px images, .*a's are 64x36"):
+        load_splits([tmp_path / "a", tmp_path / "c"])
+
+
 def test_evaluate_split_counts_by_range_and_visibility():
     from tools.detector.data import Split
 
@@ -373,3 +405,53 @@ def test_a_run_from_an_exported_model_keeps_its_start_to_average_with(tiny_datas
     np.testing.assert_allclose(b[0, :4], a[0, :4], atol=0.05)  # boxes, px
     assert np.mean(np.abs(b[0, 4:] - a[0, 4:]) > 1e-4) < 1e-3  # class scores (peak-test flips aside)
     assert any(not torch.equal(start[k], v) for k, v in torch.load(tmp_path / "second.pt", weights_only=True).items())
+
+
+def test_balance_centres_crops_on_rare_classes_as_often_as_on_common_ones():
+    from tools.detector.data import Split, TrainSampler
+
+    # one frame: nine cars at the left, one animal at the far right, out of reach of a car-centred crop
+    cars = np.array([[20 + 12 * k, 150, 50 + 12 * k, 175] for k in range(9)], dtype=np.float32)
+    boxes = np.vstack([cars, [[600, 160, 624, 180]]]).astype(np.float32)
+    classes = np.array([4] * 9 + [7])
+    split = Split(np.full((1, 360, 640, 3), 90, np.uint8), [boxes], [classes], [np.ones(10, np.float32)],
+                  [np.full(10, 20.0, np.float32)], ["f.png"])
+
+    def animal_share(balance: float) -> float:
+        sampler = TrainSampler(split, (256, 384), 8, seed=3, balance=balance, scale_range=(1.0, 1.0))
+        return np.mean([sampler.sample(0)[1].heat[7].max() == 1.0 for _ in range(400)])
+
+    # 70 % of crops centre on an object: 1 in 10 of them on the animal at balance 0, 1 in 2 at balance 1
+    even, by_class = animal_share(0.0), animal_share(1.0)
+    assert by_class - even == pytest.approx(0.7 * (0.5 - 0.1), abs=0.08)
+
+
+def test_balance_out_of_range_is_one_line_and_exit_2(tiny_dataset, tmp_path):
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
+                                   "--balance", "1.5"])
+    assert res.exit_code == 2 and "--balance" in res.output and "Traceback" not in res.output
+
+
+def test_a_run_trains_on_several_datasets_at_once_and_names_them(tiny_dataset, tmp_path):
+    import onnx
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    second = tmp_path / "more"
+    (second / "train").mkdir(parents=True)
+    (second / "train" / "images").symlink_to(tiny_dataset / "train" / "images")
+    (second / "train" / "annotations.json").write_text((tiny_dataset / "train" / "annotations.json").read_text())
+    out, log = tmp_path / "m.onnx", tmp_path / "log.json"
+    res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), str(second), "--out", str(out),
+                                   "--epochs", "1", "--batch", "2", "--log", str(log)])
+    assert res.exit_code == 0, res.output
+    assert json.loads(log.read_text())["images"] == 8  # four frames from each
+    meta = {p.key: p.value for p in onnx.load(str(out)).metadata_props}
+    assert meta["train_data"] == f"{tiny_dataset},{second}"
+    res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), str(tmp_path / "none"), "--out", str(out)])
+    assert res.exit_code == 2 and "none" in res.output and "Traceback" not in res.output

@@ -108,6 +108,28 @@ def load_split(path: str | Path, limit: int | None = None) -> Split:
     return Split(files, boxes, classes, visible, ranges, names)
 
 
+def load_splits(paths: Sequence[str | Path], limit: int | None = None) -> Split:
+    """Several splits read as one, in order (``load_split`` each); ``limit`` counts across them.
+
+    Their images must all be one size (one line naming the first split that differs)."""
+    parts: list[Split] = []
+    for path in paths:
+        left = None if limit is None else limit - sum(len(p.names) for p in parts)
+        if left is not None and left <= 0:
+            break
+        parts.append(load_split(path, left))
+    if len(parts) == 1:
+        return parts[0]
+    for path, part in zip(paths[1:], parts[1:], strict=False):  # a limit may leave later paths unread
+        if len(part.names) and part.images.hw != parts[0].images.hw:
+            h, w = part.images.hw
+            raise ValueError(f"{path}: {w}x{h} px images, {paths[0]}'s are "
+                             f"{parts[0].images.hw[1]}x{parts[0].images.hw[0]}")
+    files = ImageFiles([f for p in parts for f in p.images.paths], parts[0].images.hw)
+    return Split(files, *([x for p in parts for x in getattr(p, f)]
+                          for f in ("boxes", "classes", "visible", "ranges", "names")))
+
+
 def trained_mask(boxes: np.ndarray, visible: np.ndarray) -> np.ndarray:
     w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
     return (h >= MIN_TRAIN_H) & (w >= MIN_TRAIN_W) & (visible >= MIN_TRAIN_VISIBLE)

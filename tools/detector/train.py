@@ -34,6 +34,7 @@ import json
 import logging
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -62,6 +63,7 @@ class TrainConfig:
     eval_every: int = 4  # epochs; 0 = only at the end
     limit: int | None = None  # use only the first N training images (smoke tests)
     init: str | None = None  # start from this checkpoint (state dict .pt, or an exported .onnx) instead of random
+    balance: float = 0.5  # crops centre on an object of class c with weight freq(c) ** -balance (``TrainSampler``)
     # the network (``model.CenterDet``): channels at strides 2..32, neck, head; an ``init`` of
     # smaller widths is grown into these (``widen``: the same function to start with)
     widths: tuple[int, ...] = WIDTHS
@@ -179,12 +181,22 @@ def state_path(out: Path) -> Path:
     return Path(out).with_suffix(".state.pt")
 
 
-def _run_identity(cfg: TrainConfig, data_dir: Path) -> dict:
+def _data_dirs(data: str | Path | Sequence[str | Path]) -> list[Path]:
+    return [Path(data)] if isinstance(data, str | Path) else [Path(d) for d in data]
+
+
+def _data_name(data: str | Path | Sequence[str | Path]) -> str:
+    """The training data as the log and the model's metadata name it: a directory, or several joined by ','."""
+    return ",".join(str(d) for d in _data_dirs(data))
+
+
+def _run_identity(cfg: TrainConfig, data: str | Path | Sequence[str | Path]) -> dict:
     """What a saved state must share with the run resuming it: the data and every option."""
-    return {"data": str(Path(data_dir).resolve()), **asdict(cfg), "crop": list(cfg.crop), "scale": list(cfg.scale), "widths": list(cfg.widths)}
+    dirs = [str(d.resolve()) for d in _data_dirs(data)]
+    return {"data": dirs[0] if len(dirs) == 1 else dirs, **asdict(cfg), "crop": list(cfg.crop), "scale": list(cfg.scale), "widths": list(cfg.widths)}
 
 
-def _load_state(path: Path, cfg: TrainConfig, data_dir: Path) -> dict:
+def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[str | Path]) -> dict:
     import torch
 
     if not path.is_file():
@@ -244,8 +256,12 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
         raise ArchitectureError(f"--init {init}: {e}") from None
 
 
-def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bool = False) -> dict:
+def train(data_dir: str | Path | Sequence[str | Path], out: Path, cfg: TrainConfig, progress=None,
+          resume: bool = False) -> dict:
     """Train on ``data_dir/train`` (validating on ``data_dir/val`` when present); write ``out`` (ONNX).
+
+    ``data_dir`` may be several dataset directories: their ``train`` splits are read as one
+    (``data.load_splits``), validation is the first one's ``val``.
 
     ``resume``: continue from ``state_path(out)``, which must come from this very
     configuration and data. Returns the training log: per-epoch losses and
@@ -255,17 +271,19 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
 
     import torch
 
-    from tools.detector.data import TrainSampler, load_split
+    from tools.detector.data import TrainSampler, load_splits
     from tools.detector.evaluate import evaluate_model
     from tools.detector.model import CenterDet
 
-    state = _load_state(state_path(out), cfg, Path(data_dir)) if resume else None
+    state = _load_state(state_path(out), cfg, data_dir) if resume else None
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.threads)
     torch.use_deterministic_algorithms(True, warn_only=True)
-    train_split = load_split(Path(data_dir) / "train", cfg.limit)
-    val_dir = Path(data_dir) / "val"
-    sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed, scale_range=cfg.scale)
+    dirs = _data_dirs(data_dir)
+    train_split = load_splits([d / "train" for d in dirs], cfg.limit)
+    val_dir = dirs[0] / "val"
+    sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed, balance=cfg.balance,
+                           scale_range=cfg.scale)
     init = None if state is not None else cfg.init  # a resumed run takes its weights from the state
     net = CenterDet(len(CLASSES), **cfg.architecture())
     if init:
@@ -330,7 +348,7 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
         if not last:
             pending = prefetch.submit(sampler.batch, plan[step][1])
         if val_dir.is_dir() and (last or (cfg.eval_every and (epoch + 1) % cfg.eval_every == 0)):
-            export_onnx(net, out, model_metadata(cfg, str(data_dir)))
+            export_onnx(net, out, model_metadata(cfg, _data_name(data_dir)))
             m = evaluate_model(out, val_dir)
             entry["val"] = {k: m[k] for k in ("ap50", "ap50_pooled", "recall_at_p95", "precision", "recall")}
             net.to(memory_format=torch.channels_last)
@@ -343,6 +361,6 @@ def train(data_dir: Path, out: Path, cfg: TrainConfig, progress=None, resume: bo
         })
     prefetch.shutdown()
     seconds = time.perf_counter() - t_start
-    export_onnx(net, out, model_metadata(cfg, str(data_dir), {"train_seconds": round(seconds, 1)}))
+    export_onnx(net, out, model_metadata(cfg, _data_name(data_dir), {"train_seconds": round(seconds, 1)}))
     return {"config": asdict(cfg), "images": n, "seconds": round(seconds, 1), "history": history, "model": str(out),
             "checkpoint": str(checkpoint)}
