@@ -66,3 +66,16 @@ def test_bad_generator_file_is_one_line(tmp_path):
         load_generator(bad)
     with pytest.raises(ValueError, match="--split"):
         split_seeds(load_generator(SHIPPED), "holdout")
+
+
+def test_the_focus_generator_draws_more_animals_and_night_than_the_shipped_one(spec):
+    focus = load_generator(SHIPPED.with_name("detector_focus.yaml"))
+    assert {n: focus.splits[n].seeds for n in ("val", "test")} == {n: spec.splits[n].seeds for n in ("val", "test")}
+
+    def drawn(s: GeneratorSpec) -> tuple[int, int]:
+        scenes = [generate_scenario(s, seed) for seed in range(10800, 10860)]
+        animals = sum(a.type == "animal" for sc in scenes for a in sc.actors)
+        return animals, sum(sc.weather.kind == "night" for sc in scenes)
+
+    (a0, n0), (a1, n1) = drawn(spec), drawn(focus)
+    assert a1 > 1.5 * a0 and n1 > n0
