@@ -541,6 +541,10 @@ def eval_detector(
     min_box: Annotated[float, typer.Option(
         "--min-box", min=0.0, help="grow boxes smaller than this (px) before IoU, as all scoring does; 0: plain IoU"
     )] = 8.0,
+    min_height: Annotated[float, typer.Option(
+        "--min-height", min=0.0, help="objects whose visible box is shorter than this (px) are don't care "
+        "(KITTI's difficulty rule; its Moderate set: 25)"
+    )] = 0.0,
     windows: Annotated[str | None, typer.Option(
         help="zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image with an optional zoom "
         "(input px per image px), as a scenario's perception.detector.windows; default: the scenarios' "
@@ -567,7 +571,8 @@ def eval_detector(
         except ValueError as e:
             console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False, soft_wrap=True)
             raise typer.Exit(2) from None
-    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom)
+    results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom,
+                                       min_height=min_height)
                for sp in splits}
     shown = "; ".join(" ".join(f"{v:.3g}" for v in w) for w in zoom) or "none, the whole frame only"
     print(f"zoom windows (x0 y0 x1 y1 [zoom]): {shown}")
@@ -577,12 +582,16 @@ def eval_detector(
         f = lambda v: f"{v:6.3f}" if v is not None else "     -"  # noqa: E731
         print(f"{sp[-32:]:32s} {f(m['ap50'])} {f(m['ap50_pooled'])} {f(m['recall_at_p95'])} "
               f"{f(m['precision'])} {f(m['recall'])}  {pc}")
+    recall = lambda t: " ".join(f"{k}={v['found'] / v['gt']:.2f}" if v["gt"] else f"{k}=-" for k, v in t.items())  # noqa: E731
     print("recall by range (m), and what became of the objects not found:")
     for sp, m in results.items():
-        bands = " ".join(f"{k}={v['found'] / v['gt']:.2f}" if v["gt"] else f"{k}=-" for k, v in m["outcomes"]["by_range"].items())
         lost = {k: sum(v[k] for v in m["outcomes"]["by_class"].values()) for k in ("wrong_class", "loose", "missed")}
         n = max(1, sum(lost.values()))
-        print(f"{sp[-32:]:32s} {bands}  | " + " ".join(f"{k} {v} ({v / n:.0%})" for k, v in lost.items()))
+        print(f"{sp[-32:]:32s} {recall(m['outcomes']['by_range'])}  | "
+              + " ".join(f"{k} {v} ({v / n:.0%})" for k, v in lost.items()))
+    print("recall by visible box height (px):")
+    for sp, m in results.items():
+        print(f"{sp[-32:]:32s} {recall(m['outcomes']['by_height'])}")
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(results, indent=2) + "\n")

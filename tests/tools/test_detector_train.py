@@ -97,7 +97,27 @@ def test_each_object_not_found_is_told_apart_as_wrong_class_loose_or_missed():
     assert out["by_class"]["car"] == {"gt": 2, "found": 0, "wrong_class": 0, "loose": 1, "missed": 1}
     assert [v["found"] for v in out["by_range"].values()] == [1, 0, 0, 0, 0]
     assert [v["gt"] for v in out["by_range"].values()] == [1, 1, 1, 0, 1]
+    assert out["by_height"]["40-inf"] == {"gt": 4, "found": 1, "wrong_class": 1, "loose": 1, "missed": 1}
+    assert sum(v["gt"] for v in out["by_height"].values()) == 4
     assert sum(v["found"] for v in out["by_class"].values()) == round(m["recall"] * m["gt"])
+
+
+def test_a_minimum_height_makes_shorter_objects_dont_care_as_kitti_does():
+    from tools.detector.data import Split
+
+    gt = np.array([[10, 10, 50, 90], [100, 40, 104, 50], [200, 40, 204, 50]], np.float32)  # 80, 10, 10 px tall
+    split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 0])],
+                  visible=[np.ones(3, np.float32)], ranges=[np.array([10.0, 40.0, 40.0])], names=["a.png"])
+
+    def detect(img):  # the tall one, one short one found, the other short one missed
+        return np.array([[10, 10, 50, 90], [100, 40, 104, 50]], np.float64), np.array([0.9, 0.8]), np.array([0, 0])
+
+    every = evaluate_split(split, detect, min_size=0)
+    assert every["gt"] == 3 and every["tp"] == 2
+    assert every["outcomes"]["by_height"]["8-12"] == {"gt": 2, "found": 1, "wrong_class": 0, "loose": 0, "missed": 1}
+    tall = evaluate_split(split, detect, min_size=0, min_height=25)
+    assert tall["gt"] == 1 and tall["tp"] == 1 and tall["fp"] == 0  # the short one found is neither TP nor FP
+    assert tall["recall"] == 1.0 and tall["ap50"] == 1.0 and tall["min_height_px"] == 25
 
 
 def test_a_split_reads_its_images_when_used_and_names_a_bad_one(tmp_path):

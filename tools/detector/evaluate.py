@@ -22,7 +22,12 @@ Reported (``evaluate_split``):
   (``gt_outcomes``), per class and per range band (``RANGE_BANDS``): ``found``
   (matched by a box of its class), else ``wrong_class`` (a box of another class at
   IoU >= 0.5), else ``loose`` (some box at IoU >= ``LOOSE_IOU``: found, badly
-  boxed), else ``missed`` -- where to look when recall falls short.
+  boxed), else ``missed`` -- where to look when recall falls short; and per band of
+  visible box height (``HEIGHT_BANDS``, px), which tells pixels short from objects hard.
+
+``min_height`` (px, default 0) narrows the evaluated set to objects whose visible box is
+at least that tall, the rest becoming don't care -- KITTI's difficulty rule (its
+Moderate and Hard sets start at 25 px): the accuracy of objects a detector can resolve.
 
 Detections are computed at a low score threshold (``AP_CONF``) once; operating-point
 figures keep those with score > ``conf``.
@@ -58,6 +63,7 @@ TP, FP, IGNORED = 1, 0, -1
 OUTCOMES = ("found", "wrong_class", "loose", "missed")
 LOOSE_IOU = 0.1
 RANGE_BANDS = (5.0, 10.0, 20.0, 30.0, 40.0, 50.0)  # m, band edges
+HEIGHT_BANDS = (0.0, 8.0, 12.0, 16.0, 25.0, 40.0, np.inf)  # px, visible box height band edges
 
 
 def match_image(
@@ -89,16 +95,18 @@ def gt_outcomes(
     return np.where(found, 0, np.where(other >= IOU_THRESHOLD, 1, np.where(near >= LOOSE_IOU, 2, 3)))
 
 
-def _outcome_table(outcome: np.ndarray, gt_cls: np.ndarray, gt_range: np.ndarray) -> dict:
+def _outcome_table(outcome: np.ndarray, gt_cls: np.ndarray, gt_range: np.ndarray, gt_height: np.ndarray) -> dict:
     def counts(sel: np.ndarray) -> dict:
         c = np.bincount(outcome[sel], minlength=len(OUTCOMES))
         return {"gt": int(sel.sum()), **{k: int(v) for k, v in zip(OUTCOMES, c, strict=True)}}
 
+    def by_band(values: np.ndarray, edges: Sequence[float]) -> dict:
+        band = np.clip(np.searchsorted(edges, values, side="right") - 1, 0, len(edges) - 2)
+        return {f"{edges[b]:g}-{edges[b + 1]:g}": counts(band == b) for b in range(len(edges) - 1)}
+
     by_class = {CLASSES[c]: counts(gt_cls == c) for c in range(len(CLASSES)) if np.any(gt_cls == c)}
-    edges = np.asarray(RANGE_BANDS)
-    band = np.clip(np.searchsorted(edges, gt_range, side="right") - 1, 0, len(edges) - 2)
-    by_range = {f"{edges[b]:g}-{edges[b + 1]:g}": counts(band == b) for b in range(len(edges) - 1)}
-    return {"by_class": by_class, "by_range": by_range}
+    return {"by_class": by_class, "by_range": by_band(gt_range, RANGE_BANDS),
+            "by_height": by_band(gt_height, HEIGHT_BANDS)}
 
 
 def recall_at_precision(score: np.ndarray, is_tp: np.ndarray, n_gt: int, floor: float) -> float:
@@ -146,25 +154,28 @@ def _summary(status: np.ndarray, score: np.ndarray, cls: np.ndarray, gt_cls: np.
 def evaluate_split(
     split: Split, detect: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
     conf: float = 0.25, range_m: tuple[float, float] = RANGE_M, min_visible: float = MIN_VISIBLE,
-    min_size: float = MIN_MATCH_SIZE_PX,
+    min_size: float = MIN_MATCH_SIZE_PX, min_height: float = 0.0,
 ) -> dict:
     """Accuracy of ``detect`` (RGB image -> xyxy, score, class id in image px) on ``split``;
-    ``min_size``: boxes grown to at least this many px for IoU (0: plain IoU)."""
+    ``min_size``: boxes grown to at least this many px for IoU (0: plain IoU); ``min_height``:
+    objects with a shorter visible box (px) are don't care."""
     status = {False: [], True: []}
-    scores, classes, gt_classes, gt_ranges, outcomes = [], [], [], [], []
+    scores, classes, gt_classes, gt_ranges, gt_heights, outcomes = [], [], [], [], [], []
     for i in range(len(split.images)):
         boxes = split.boxes[i]
         xyxy, score, cls = detect(split.images[i])
         keep = score > AP_CONF
         xyxy, score, cls = xyxy[keep], score[keep], cls[keep]
         rng, vis = split.ranges[i], split.visible[i]
-        evaluated = (rng >= range_m[0]) & (rng <= range_m[1]) & (vis >= min_visible)
+        height = boxes[:, 3] - boxes[:, 1]
+        evaluated = (rng >= range_m[0]) & (rng <= range_m[1]) & (vis >= min_visible) & (height >= min_height)
         for agn in (False, True):
             status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn, min_size))
         scores.append(score)
         classes.append(cls)
         gt_classes.append(split.classes[i][evaluated])
         gt_ranges.append(rng[evaluated])
+        gt_heights.append(height[evaluated])
         op = score > conf
         outcomes.append(gt_outcomes(xyxy[op], score[op], cls[op], boxes[evaluated], split.classes[i][evaluated],
                                     min_size))
@@ -173,10 +184,12 @@ def evaluate_split(
     result = _summary(cat(status[False], np.int64), score, cls, gt_cls, conf)
     agn = _summary(cat(status[True], np.int64), score, np.zeros_like(cls), np.zeros_like(gt_cls), conf)
     result["agnostic"] = {k: agn[k] for k in ("ap50", "recall_at_p95", "precision", "recall")}
-    result["outcomes"] = _outcome_table(cat(outcomes, np.int64), gt_cls, cat(gt_ranges, np.float64))
+    result["outcomes"] = _outcome_table(cat(outcomes, np.int64), gt_cls, cat(gt_ranges, np.float64),
+                                        cat(gt_heights, np.float64))
     result["images"] = len(split.images)
     result["conf"] = conf
     result["min_box_px"] = min_size
+    result["min_height_px"] = min_height
     return result
 
 
@@ -196,9 +209,10 @@ def onnx_detect(model: str | Path, preprocess=None, windows: Sequence[Sequence[f
 
 def evaluate_model(
     model: str | Path, split_dir: str | Path, conf: float = 0.25, preprocess=None,
-    min_size: float = MIN_MATCH_SIZE_PX, windows: Sequence[Sequence[float]] = (),
+    min_size: float = MIN_MATCH_SIZE_PX, windows: Sequence[Sequence[float]] = (), min_height: float = 0.0,
 ) -> dict:
     """``evaluate_split`` of an ONNX model run as at run time (``windows``: its zoom windows)."""
-    result = evaluate_split(load_split(split_dir), onnx_detect(model, preprocess, windows), conf, min_size=min_size)
+    result = evaluate_split(load_split(split_dir), onnx_detect(model, preprocess, windows), conf,
+                            min_size=min_size, min_height=min_height)
     result["windows"] = [list(w) for w in windows]
     return result
