@@ -1,14 +1,15 @@
 """``lookahead bench detect``: the ONNX detector end to end vs its bare ``session.run``.
 
-Rendered 640 x 360 frames of a scenario go through ``OnnxDetector.detect`` as the
-scenarios run it, with the default zoom windows (``perception.detectors.windows``:
-letterbox, inference, decode and per-class NMS of the whole frame and of each window,
-then the merge) and, interleaved frame by frame in the same process, through
-``session.run`` alone on the same already-letterboxed tensors (one per view). Ratio
-``pipeline_over_session_run`` = median pipeline ms / median summed ``session.run`` ms;
-``fps`` = 1000 / median pipeline ms. The cases ``preprocess`` and ``postprocess`` are
-the pipeline's own stage timings; ``whole_frame`` is the same detector without windows
-(``fps_whole_frame``, and ``windows_over_whole_frame``: what the windows cost).
+Rendered frames of a scenario (its camera's 640 x 360, or another size asked for) go
+through ``OnnxDetector.detect`` as the scenarios run it, with the default zoom windows or
+those asked for (``perception.detectors.windows``: letterbox, inference, decode and
+per-class NMS of the whole frame and of each window, then the merge) and, interleaved
+frame by frame in the same process, through ``session.run`` alone on the same
+already-letterboxed tensors (one per view). Ratio ``pipeline_over_session_run`` = median
+pipeline ms / median summed ``session.run`` ms; ``fps`` = 1000 / median pipeline ms. The
+cases ``preprocess`` and ``postprocess`` are the pipeline's own stage timings;
+``whole_frame`` is the same detector without windows (``fps_whole_frame``, and
+``windows_over_whole_frame``: what the windows cost).
 """
 
 from __future__ import annotations
@@ -25,10 +26,13 @@ from sim.scenario import DetectorSpec, load_scenario
 from tools.bench import case, machine
 
 
-def render_frames(scenario_path: Path, n: int) -> list[np.ndarray]:
-    """``n`` camera images of the scenario (one per camera frame, from the start)."""
+def render_frames(scenario_path: Path, n: int, size: tuple[int, int] | None = None) -> list[np.ndarray]:
+    """``n`` camera images of the scenario (one per camera frame, from the start); ``size``:
+    (width, height) px of the camera instead of the scenario's."""
     sc = load_scenario(scenario_path)
     sc = sc.model_copy(update={"perception": sc.perception.model_copy(update={"detector": DetectorSpec(kind="gt")})})
+    if size is not None:
+        sc = sc.model_copy(update={"camera": sc.camera.model_copy(update={"width": size[0], "height": size[1]})})
     runner = Runner(sc, render=True)
     frames = []
     try:
@@ -42,11 +46,13 @@ def render_frames(scenario_path: Path, n: int) -> list[np.ndarray]:
 
 
 def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None, frames: int = 30,
-                 repeats: int = 3, windows: Sequence[Sequence[float]] = DEFAULT_WINDOWS) -> dict:
+                 repeats: int = 3, windows: Sequence[Sequence[float]] = DEFAULT_WINDOWS,
+                 size: tuple[int, int] | None = None) -> dict:
+    """The benchmark record (module docstring); ``size``: camera (width, height) px, default the scenario's."""
     from perception.detectors.onnx_detector import OnnxDetector
 
     root = Path(__file__).resolve().parents[1]
-    images = render_frames(scenario_path or root / "scenarios" / "urban_mix.yaml", frames)
+    images = render_frames(scenario_path or root / "scenarios" / "urban_mix.yaml", frames, size)
     det = OnnxDetector(model, windows=windows)
     det.warmup(3)
     samples: dict[str, list[float]] = {"pipeline": [], "session_run": [], "preprocess": [], "postprocess": [],

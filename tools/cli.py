@@ -69,6 +69,24 @@ def yaml_option(name: str, text: str):
         raise typer.Exit(2) from None
 
 
+WINDOWS_HELP = ("zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image with an optional zoom "
+                "(input px per image px), as a scenario's perception.detector.windows; default: the scenarios' "
+                "default; '[]': the whole frame only")
+
+
+def windows_option(text: str | None) -> tuple[tuple[float, ...], ...]:
+    """The ``--windows`` option's zoom windows (None: the default ones); a bad one is one line, exit 2."""
+    from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
+
+    if text is None:
+        return DEFAULT_WINDOWS
+    try:
+        return check_windows(yaml_option("--windows", text) or [])
+    except (TypeError, ValueError) as e:
+        console.print(f"[bold red]error:[/] --windows: {e}", markup=True, highlight=False, soft_wrap=True)
+        raise typer.Exit(2) from None
+
+
 def save_bench(result: dict, out: Path) -> None:
     """Write a benchmark's JSON to ``out`` and print its table and ratios."""
     from tools.bench import print_bench
@@ -545,22 +563,13 @@ def eval_detector(
         "--min-height", min=0.0, help="objects whose visible box is shorter than this (px) are don't care "
         "(KITTI's difficulty rule; its Moderate set: 25)"
     )] = 0.0,
-    windows: Annotated[str | None, typer.Option(
-        help="zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image with an optional zoom "
-        "(input px per image px), as a scenario's perception.detector.windows; default: the scenarios' "
-        "default; '[]': the whole frame only"
-    )] = None,
+    windows: Annotated[str | None, typer.Option(help=WINDOWS_HELP)] = None,
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
     """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
-    from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
     from tools.detector.evaluate import evaluate_model
 
-    try:
-        zoom = DEFAULT_WINDOWS if windows is None else check_windows(yaml_option("--windows", windows) or [])
-    except (TypeError, ValueError) as e:
-        console.print(f"[bold red]error:[/] --windows: {e}", markup=True, highlight=False, soft_wrap=True)
-        raise typer.Exit(2) from None
+    zoom = windows_option(windows)
 
     chain = None
     if preprocess is not None:
@@ -643,14 +652,29 @@ def bench_detect(
     scenario: Annotated[Path, typer.Option(help="scenario whose frames are detected")] = Path("scenarios/urban_mix.yaml"),
     frames: Annotated[int, typer.Option(min=1, help="rendered frames")] = 30,
     repeats: Annotated[int, typer.Option(min=1, help="passes over the frames")] = 3,
+    camera: Annotated[str | None, typer.Option(
+        metavar="WxH", help="render at this camera resolution instead of the scenario's, e.g. 1280x720"
+    )] = None,
+    windows: Annotated[str | None, typer.Option(help=WINDOWS_HELP)] = None,
 ) -> None:
-    """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360."""
+    """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360 by default."""
     from sim.runner import DEFAULT_MODEL
     from tools.bench_detect import bench_detect as run_bench
 
-    result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats)
+    size = None
+    if camera is not None:
+        try:
+            size = tuple(int(v) for v in camera.lower().split("x"))
+            if len(size) != 2 or min(size) < 16:
+                raise ValueError
+        except ValueError:
+            console.print(f"[bold red]error:[/] --camera {camera!r}: WIDTHxHEIGHT in px expected, e.g. 1280x720",
+                          markup=True, highlight=False, soft_wrap=True)
+            raise typer.Exit(2) from None
+    result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows), size)
     save_bench(result, out)
-    console.print(f"detector: {result['fps']:.1f} frames/s with {result['views'] - 1} zoom window(s), "
+    console.print(f"detector at {result['image'][0]}x{result['image'][1]}: {result['fps']:.1f} frames/s with "
+                  f"{result['views'] - 1} zoom window(s), "
                   f"{result['fps_whole_frame']:.1f} on the whole frame only, on {result['providers'][0]}", highlight=False)
 
 

@@ -392,6 +392,27 @@ def test_scale_jitter_magnifies_training_frames_as_a_zoom_window_does(tiny_datas
     assert sizes[1] == pytest.approx(2 * sizes[0], rel=0.05)
 
 
+def test_a_frame_larger_than_the_input_is_magnified_from_its_own_pixels(monkeypatch):
+    # a 1280 x 720 frame is half-size at the model input; scale 2 shows it at its own
+    # resolution, so a 1-px checkerboard stays one, not the grey that resizing to 640 wide
+    # first would leave; object sizes are those of the run-time letterbox times the scale
+    from tools.detector import data
+    from tools.detector.data import Split, TrainSampler
+
+    monkeypatch.setattr(data, "_photometric", lambda img, rng: img)  # no blur or noise drawn
+
+    board = ((np.indices((720, 1280)).sum(axis=0) % 2) * 255).astype(np.uint8)
+    split = Split(images=np.repeat(board[None, :, :, None], 3, axis=3),
+                  boxes=[np.array([[600, 300, 640, 380]], np.float32)], classes=[np.array([0])],
+                  visible=[np.ones(1, np.float32)], ranges=[np.array([20.0])], names=["a.png"])
+    for scale, height in ((1.0, 40.0), (2.0, 80.0)):
+        crop, tgt = TrainSampler(split, (256, 384), 8, seed=0, scale_range=(scale, scale)).sample(0)
+        assert crop.shape == (256, 384, 3)
+        assert np.exp(tgt.reg[tgt.valid > 0][:, 3]).max() * 4 == pytest.approx(height, rel=0.02)
+        contrast = np.abs(np.diff(crop[:, :, 0].astype(int), axis=1)).mean()
+        assert contrast > 200 if scale == 2.0 else contrast < 30
+
+
 def test_a_reversed_scale_range_is_one_line_and_exit_2(tiny_dataset, tmp_path):
     from typer.testing import CliRunner
 

@@ -2,7 +2,11 @@
 
 Training crops are cut from images letterboxed exactly as
 ``perception.detectors.onnx_detector`` does at run time (``perception.letterbox``), so
-training sees the grey bands inference sees.
+training sees the grey bands inference sees. A frame larger than the model input (a
+1280 x 720 camera's) is letterboxed at its own resolution instead and its scale range
+shrunk by the same factor (``native_letterbox``): the crops have the geometry of the
+run-time letterbox, and a magnified one keeps the detail the camera resolved, as a zoom
+window on such a frame does.
 Boxes are visible boxes, xyxy px. An object is *trained* when its visible box is at
 least ``MIN_TRAIN_H`` px tall and ``MIN_TRAIN_W`` wide with visible fraction >=
 ``MIN_TRAIN_VISIBLE``; other labelled objects are *ignored*: the heat-map loss is
@@ -255,6 +259,18 @@ def encode(boxes: np.ndarray, classes: np.ndarray, train: np.ndarray, hw: tuple[
     return Targets(heat, mask, index, reg, valid)
 
 
+def native_letterbox(img: np.ndarray, boxes: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """``img`` letterboxed to the aspect of ``INPUT_HW`` at its own resolution when it is larger
+    than the input, else to ``INPUT_HW``: the padded image, its boxes (px) and the factor from
+    it to ``INPUT_HW`` (1 for a frame no larger than the input; 0.5 for 1280 x 720)."""
+    h, w = img.shape[:2]
+    fit = min(INPUT_HW[0] / h, INPUT_HW[1] / w)
+    to_input = min(1.0, fit)
+    hw = (round(INPUT_HW[0] / to_input), round(INPUT_HW[1] / to_input))
+    padded, scale, pad = letterbox(img, hw)
+    return padded, letterbox_boxes(boxes, scale, pad).astype(np.float32), to_input
+
+
 class TrainSampler:
     """Random training samples (crop, targets) from a ``Split``; every draw from ``rng``."""
 
@@ -273,10 +289,10 @@ class TrainSampler:
     def sample(self, i: int) -> tuple[np.ndarray, Targets]:
         s = self.split
         train = trained_mask(s.boxes[i], s.visible[i])
-        padded, scale, pad = letterbox(s.images[i], INPUT_HW)
-        boxes = letterbox_boxes(s.boxes[i], scale, pad).astype(np.float32)
+        padded, boxes, to_input = native_letterbox(s.images[i], s.boxes[i])
         w = self.class_weight[s.classes[i]] * (0.1 + 0.9 * train)  # ignored objects seldom centre a crop
-        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng, self.scale_range, w)
+        lo, hi = self.scale_range
+        crop, boxes, whole = random_crop(padded, boxes, self.crop_hw, self.rng, (lo * to_input, hi * to_input), w)
         crop = _photometric(crop, self.rng)
         w, h = boxes[:, 2] - boxes[:, 0], boxes[:, 3] - boxes[:, 1]
         keep = (w > 0) & (h > 0)
