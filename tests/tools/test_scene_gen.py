@@ -79,3 +79,15 @@ def test_the_focus_generator_draws_more_animals_and_night_than_the_shipped_one(s
 
     (a0, n0), (a1, n1) = drawn(spec), drawn(focus)
     assert a1 > 1.5 * a0 and n1 > n0
+
+
+@pytest.mark.parametrize("name, wh", [("detector_540p.yaml", (960, 540)), ("detector_720p.yaml", (1280, 720))])
+def test_a_larger_camera_generator_renders_the_same_scenes(spec, name, wh):
+    big = load_generator(SHIPPED.parent / name)
+    for split in ("train", "val", "test"):
+        assert split_seeds(big, split) == split_seeds(spec, split)
+    for seed in (3, 200017):
+        a, b = generate_scenario(spec, seed).model_dump(), generate_scenario(big, seed).model_dump()
+        assert (b["camera"].pop("width"), b["camera"].pop("height")) == wh
+        a["camera"].pop("width"), a["camera"].pop("height")
+        assert a == b  # the field of view, mount, actors, weather: all the same
