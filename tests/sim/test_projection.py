@@ -53,9 +53,14 @@ def snap(box: np.ndarray) -> np.ndarray:
     return np.floor(np.asarray(box) + 0.5)
 
 
+def unhidden(rows: list[dict]) -> list[dict]:
+    """Actors the issue's projection check covers: visible fraction >= 0.9, no truncation."""
+    return [r for r in rows if r["visible_fraction"] >= 0.9 and r["truncation"] == 0.0
+            and np.all(np.isfinite(r["visible"]))]
+
+
 def test_amodal_boxes_match_the_segmentation(smoke_rows):
-    sel = [r for r in smoke_rows if r["visible_fraction"] >= 0.9 and r["truncation"] == 0.0
-           and np.all(np.isfinite(r["visible"])) and r["visible"][3] - r["visible"][1] >= MIN_HEIGHT_PX]
+    sel = [r for r in unhidden(smoke_rows) if r["visible"][3] - r["visible"][1] >= MIN_HEIGHT_PX]
     assert len(sel) > 100
     raw = np.array([iou_matrix(r["amodal"][None], r["visible"][None])[0, 0] for r in sel])
     snapped = np.array([iou_matrix(snap(r["amodal"])[None], r["visible"][None])[0, 0] for r in sel])
@@ -67,8 +72,7 @@ def test_amodal_boxes_match_the_segmentation(smoke_rows):
 def test_projected_edges_are_off_by_pixel_quantisation_only(smoke_rows):
     """Scale-free and without the size floor: each edge of the amodal box lies within a pixel of
     the segmentation's, unbiased, scattered as pixel quantisation is (std 1/sqrt(12) = 0.29 px)."""
-    sel = [r for r in smoke_rows if r["visible_fraction"] >= 0.9 and r["truncation"] == 0.0
-           and np.all(np.isfinite(r["visible"]))]
+    sel = unhidden(smoke_rows)
     assert len(sel) > 200
     edge = np.array([r["visible"] for r in sel]) - np.array([r["amodal"] for r in sel])  # px, x0 y0 x1 y1
     assert np.all(np.abs(edge.mean(axis=0)) <= 0.15), edge.mean(axis=0)
