@@ -96,6 +96,21 @@ def save_bench(result: dict, out: Path) -> None:
     print_bench(result, console)
 
 
+def camera_option(text: str | None) -> tuple[int, int] | None:
+    """The ``--camera WxH`` option's (width, height) px (None: not given); a bad one is one line, exit 2."""
+    if text is None:
+        return None
+    try:
+        size = tuple(int(v) for v in text.lower().split("x"))
+        if len(size) != 2 or min(size) < 16:
+            raise ValueError
+    except ValueError:
+        console.print(f"[bold red]error:[/] --camera {text!r}: WIDTHxHEIGHT in px expected, e.g. 1280x720",
+                      markup=True, highlight=False, soft_wrap=True)
+        raise typer.Exit(2) from None
+    return size  # type: ignore[return-value]
+
+
 def _progress() -> Progress:
     return Progress(
         TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
@@ -458,6 +473,9 @@ def export_dataset(
     seeds: Annotated[tuple[int, int] | None, typer.Option(
         "--seeds", metavar="FIRST LAST", help="generator: scene seeds [FIRST, LAST) for the one --split, instead of "
         "its range in the file (must not overlap the other splits)")] = None,
+    camera: Annotated[str | None, typer.Option(
+        metavar="WxH", help="generator: render at this camera resolution instead of the file's, e.g. 960x540 "
+        "(the same scenes, field of view and mount)")] = None,
 ) -> None:
     """Run scenarios with rendering and export images + ground-truth labels as a dataset.
 
@@ -466,7 +484,8 @@ def export_dataset(
     """
     from tools.export import export_command
 
-    raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds))
+    raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds,
+                                    camera=camera_option(camera)))
 
 
 def _require_torch(command: str) -> None:
@@ -661,17 +680,8 @@ def bench_detect(
     from sim.runner import DEFAULT_MODEL
     from tools.bench_detect import bench_detect as run_bench
 
-    size = None
-    if camera is not None:
-        try:
-            size = tuple(int(v) for v in camera.lower().split("x"))
-            if len(size) != 2 or min(size) < 16:
-                raise ValueError
-        except ValueError:
-            console.print(f"[bold red]error:[/] --camera {camera!r}: WIDTHxHEIGHT in px expected, e.g. 1280x720",
-                          markup=True, highlight=False, soft_wrap=True)
-            raise typer.Exit(2) from None
-    result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows), size)
+    result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows),
+                       camera_option(camera))
     save_bench(result, out)
     console.print(f"detector at {result['image'][0]}x{result['image'][1]}: {result['fps']:.1f} frames/s with "
                   f"{result['views'] - 1} zoom window(s), "

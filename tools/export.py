@@ -356,16 +356,16 @@ def export_scenarios(
     }
 
 
-def _export_chunk(gen_path: str, seeds: list[int], weather: str | None, fmt: str, every: int,
+def _export_chunk(spec: GeneratorSpec, seeds: list[int], weather: str | None, fmt: str, every: int,
                   out: str) -> tuple[list[dict], list[dict], list[dict]]:
-    """A worker's job: export the generated scenes ``seeds`` into ``out``.
+    """A worker's job: export the generated scenes ``seeds`` of ``spec`` (as resolved by the
+    caller: seed ranges and camera overridden) into ``out``.
 
     Returns (sequence summaries, COCO images, COCO annotations) -- the COCO lists
     (empty for other formats) are merged and renumbered by the caller.
     """
-    from tools.scene_gen import generate_scenario, load_generator
+    from tools.scene_gen import generate_scenario
 
-    spec = load_generator(gen_path)
     scenarios = [generate_scenario(spec, s, weather) for s in seeds]
     writer = make_writer(fmt, Path(out), every)
     seqs = _run_export(scenarios, writer, every, render=True)
@@ -393,12 +393,14 @@ def _run_export(scenarios: Sequence[Scenario], writer: Writer, every: int, rende
 def export_generated(
     gen_path: Path, fmt: str, every: int, out: Path, splits: Sequence[str] | None = None,
     weather: str | None = None, workers: int = 1, chunk: int = 8, progress=None,
-    seeds: tuple[int, int] | None = None,
+    seeds: tuple[int, int] | None = None, camera: tuple[int, int] | None = None,
 ) -> dict:
     """Export the scenes of a generator file (``tools.scene_gen``), one dataset per split in
     ``out/<split>``; ``weather`` forces one weather kind on every scene (same scenes).
     ``seeds`` [first, last) replaces the seed range of the one split exported (more scenes
     of it, e.g. a second training set); it must not overlap another split's range.
+    ``camera`` (width, height) px replaces the file's camera resolution: the same scenes,
+    field of view and mount, seen with more or fewer pixels.
 
     Scenes run on a process pool of ``workers`` in chunks of ``chunk`` seeds; the
     result does not depend on ``workers`` (COCO ids follow seed order).
@@ -414,17 +416,20 @@ def export_generated(
     splits = list(splits or spec.splits)
     if seeds is not None:
         spec = with_split_seeds(spec, splits, seeds, gen_path)
+    if camera is not None:
+        spec = with_camera(spec, camera)
     split_list = {sp: list(split_seeds(spec, sp)) for sp in splits}  # validates the split names
     for sp in splits:  # validate a scene of each split (and the weather name) before running anything
         generate_scenario(spec, split_list[sp][0], weather)
     out = prepare_dir(Path(out))
-    result: dict = {"format": fmt, "out": str(out), "every": every, "weather": weather, "splits": {}}
+    result: dict = {"format": fmt, "out": str(out), "every": every, "weather": weather,
+                    "camera": [spec.camera.width, spec.camera.height], "splits": {}}
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) if workers > 1 else None
     try:
         for sp in splits:
             split_dir = prepare_dir(out / sp)
             writer = make_writer(fmt, split_dir, every)
-            jobs = [(str(gen_path), split_list[sp][i:i + chunk], weather, fmt, every, str(split_dir))
+            jobs = [(spec, split_list[sp][i:i + chunk], weather, fmt, every, str(split_dir))
                     for i in range(0, len(split_list[sp]), chunk)]
             if pool is None:
                 parts = []
@@ -482,6 +487,22 @@ def with_split_seeds(spec: GeneratorSpec, splits: Sequence[str], seeds: tuple[in
     return spec.model_copy(update={"splits": ranges})
 
 
+def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
+    """``spec`` with its camera resolution set to ``size`` (width, height) px, every other
+    camera draw (field of view, mount) unchanged; ValueError when out of range."""
+    from pydantic import ValidationError
+
+    from tools.scene_gen import CameraRandom
+
+    w, h = size
+    try:
+        cam = CameraRandom.model_validate({**spec.camera.model_dump(), "width": w, "height": h})
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ValueError(f"--camera {w}x{h}: {err['loc'][0]} {err['msg'].lower()}") from None
+    return spec.model_copy(update={"camera": cam})
+
+
 def load_sources(source: Path) -> list[Scenario]:
     """The scenarios of a scenario YAML or of a suite YAML (a mapping with ``scenarios``)."""
     from tools.suite import is_suite, load_suite, read_yaml
@@ -502,11 +523,12 @@ def export_dataset(source: Path, fmt: str, every: int, out: Path, render: bool =
 def export_command(
     source: Path, fmt: str, every: int, out: Path, render: bool = True, splits: Sequence[str] | None = None,
     weather: str | None = None, workers: int = 1, progress=None, seeds: tuple[int, int] | None = None,
+    camera: tuple[int, int] | None = None,
 ) -> int:
     """CLI body of ``lookahead export-dataset``: 0, or 2 with one ``error:`` line.
 
     ``source`` may be a scenario, a suite or a generator file (``tools.scene_gen``);
-    ``splits``, ``weather``, ``workers`` and ``seeds`` apply to generator files only.
+    ``splits``, ``weather``, ``workers``, ``seeds`` and ``camera`` apply to generator files only.
     """
     from tools.scene_gen import is_generator
     from tools.suite import read_yaml
@@ -516,13 +538,13 @@ def export_command(
             raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
         if is_generator(read_yaml(source, "scenario, suite or generator")):
             result = export_generated(Path(source), fmt, every, Path(out), splits, weather, workers,
-                                      progress=progress, seeds=seeds)
+                                      progress=progress, seeds=seeds, camera=camera)
             for sp, r in result["splits"].items():
                 print(f"{sp}: {r['scenes']} scenes, {r['frames']} frames, {r['objects']} objects")
             print(f"{fmt} dataset -> {out}")
             return 0
-        if splits or weather or seeds:
-            raise ValueError("--split, --weather and --seeds apply to generator files only")
+        if splits or weather or seeds or camera:
+            raise ValueError("--split, --weather, --seeds and --camera apply to generator files only")
         result = export_dataset(Path(source), fmt, every, Path(out), render=render)
     except (ScenarioError, OutputError, OSError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -240,3 +240,37 @@ def test_a_generator_split_exported_with_other_seeds(tmp_path: Path) -> None:
     res = run(app, [*base[:-2], "--seeds", "7", "8", "--out", str(tmp_path / "bad")])
     assert res.exit_code == 2 and "give exactly one --split" in res.output
     assert not (tmp_path / "bad").exists()  # refused before anything was written
+
+
+def test_a_generator_exported_with_another_camera(tmp_path: Path) -> None:
+    """``--camera WxH`` renders the file's scenes at that size: the same objects, boxes scaled."""
+    from typer.testing import CliRunner
+
+    from tools.cli import app
+
+    gen = tmp_path / "gen.yaml"
+    gen.write_text("generator:\n  duration: 1.0\n  splits:\n    test: {seeds: [3, 4]}\n")
+    run = CliRunner().invoke
+    base = ["export-dataset", str(gen), "--format", "coco"]
+    for name, extra in (("small", ["--camera", "320x180"]), ("file", [])):
+        res = run(app, [*base, *extra, "--out", str(tmp_path / name)])
+        assert res.exit_code == 0, res.output
+    small, full = (json.loads((tmp_path / n / "test" / "annotations.json").read_text()) for n in ("small", "file"))
+    assert {(im["width"], im["height"]) for im in small["images"]} == {(320, 180)}
+    assert {(im["width"], im["height"]) for im in full["images"]} == {(640, 360)}
+    assert len(small["images"]) == len(full["images"]) == 2
+    from tools.detector.data import load_split
+
+    a, b = load_split(tmp_path / "small" / "test"), load_split(tmp_path / "file" / "test")
+    for i in range(2):
+        assert a.images[i].shape == (180, 320, 3)
+        big = b.visible[i] >= 0.5  # objects seen in both (a few pixels at 320x180 may vanish)
+        assert big.sum() >= 3
+        found = [any(c2 == c and np.abs(2 * box2 - box).max() <= 2.5 for box2, c2 in zip(a.boxes[i], a.classes[i], strict=True))
+                 for box, c in zip(b.boxes[i][big], b.classes[i][big], strict=True)]
+        assert np.mean(found) >= 0.8, found  # the same objects, boxes half the size to a pixel or so
+    res = run(app, [*base, "--camera", "wide", "--out", str(tmp_path / "bad")])
+    assert res.exit_code == 2 and "WIDTHxHEIGHT" in res.output
+    res = run(app, [*base, "--camera", "8000x720", "--out", str(tmp_path / "bad")])
+    assert res.exit_code == 2 and "--camera 8000x720: width" in res.output
+    assert not (tmp_path / "bad").exists()
