@@ -517,6 +517,7 @@ def train_detector(
     widths: Annotated[tuple[int, int, int, int, int] | None, typer.Option(min=1, help="backbone channels at strides 2, 4, 8, 16, 32 (default: the shipped model's)")] = None,
     neck: Annotated[int | None, typer.Option(min=1, help="neck channels, strides 8 and 16 (default: the shipped model's)")] = None,
     head: Annotated[int | None, typer.Option(min=1, help="head channels, stride 4 (default: the shipped model's)")] = None,
+    blocks: Annotated[tuple[int, int, int, int] | None, typer.Option(min=0, help="residual blocks added to the backbone's stages at strides 4, 8, 16, 32 (default: the shipped model's); each starts as the identity")] = None,
     balance: Annotated[float, typer.Option(min=0.0, max=1.0, help="crops centre on an object of class c with weight freq(c)^-BALANCE: 0 every object alike, 1 every class alike")] = 0.5,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
@@ -530,7 +531,8 @@ def train_detector(
         raise typer.BadParameter(f"--crop: multiples of 32 expected, got {crop[0]} {crop[1]}")
     if scale[0] > scale[1]:
         raise typer.BadParameter(f"--scale: LO <= HI expected, got {scale[0]} {scale[1]}")
-    arch = {k: v for k, v in (("widths", widths), ("neck", neck), ("head", head)) if v is not None}
+    arch = {k: v for k, v in (("widths", widths), ("neck", neck), ("head", head), ("blocks", blocks))
+            if v is not None}
     cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
                       init=None if init is None else str(init), crop=crop, scale=scale, balance=balance,
                       **arch)

@@ -317,12 +317,12 @@ def _randomised(net):
 
 
 def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
-    from tools.detector.arch import widen
+    from tools.detector.arch import grow
     from tools.detector.train import reg_loss
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
-    wide = widen(small, CenterDet(widths=(12, 16, 32, 48, 40), neck=24, head=16))
-    assert wide.arch == {"widths": (12, 16, 32, 48, 40), "neck": 24, "head": 16}
+    wide = grow(small, CenterDet(widths=(12, 16, 32, 48, 40), neck=24, head=16))
+    assert wide.arch == {"widths": (12, 16, 32, 48, 40), "neck": 24, "head": 16, "blocks": (0, 0, 0, 0)}
     x = torch.rand(2, 3, 64, 96, generator=torch.Generator().manual_seed(2))
     for mode in ("eval", "train"):  # train mode: batch statistics, the same for the old channels
         small.train(mode == "train")
@@ -340,23 +340,48 @@ def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
     assert float(wide.f4[0].weight.grad[8:].abs().sum()) == 0  # rows feeding only zero columns: not yet
 
 
+def test_a_network_grows_into_a_deeper_one_that_computes_the_same_function():
+    from tools.detector.arch import grow
+    from tools.detector.train import reg_loss
+
+    small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
+    deep = grow(small, CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8, blocks=(1, 1, 2, 1)))
+    assert sum(p.numel() for p in deep.parameters()) > sum(p.numel() for p in small.parameters())
+    x = torch.rand(2, 3, 64, 96, generator=torch.Generator().manual_seed(3))
+    for mode in ("eval", "train"):
+        small.train(mode == "train")
+        deep.train(mode == "train")
+        with torch.no_grad():
+            for a, b in zip(small(x), deep(x), strict=True):
+                torch.testing.assert_close(b, a, rtol=0, atol=1e-6)
+    # the added blocks add nothing yet; the first gradient reaches the scale that lets them
+    heat, reg = deep(x)
+    loss = focal_loss(heat, torch.zeros_like(heat), torch.ones_like(heat)) + reg_loss(
+        reg, torch.zeros(2, 1, dtype=torch.long), torch.zeros(2, 1, 4), torch.ones(2, 1))
+    loss.backward()
+    added = deep.s16[3].b[1].weight  # the second block added at stride 16
+    assert torch.count_nonzero(added) == 0 and float(added.grad.abs().sum()) > 0
+
+
 def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(tmp_path):
-    from tools.detector.arch import ArchitectureError, architecture, widen
+    from tools.detector.arch import ArchitectureError, architecture, grow
     from tools.detector.from_onnx import exported_architecture
     from tools.detector.train import export_onnx
 
     assert exported_architecture(ROOT / "models" / "lookahead-det.onnx") == CenterDet().arch
-    arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8}
+    arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8, "blocks": (1, 0, 2, 1)}
     net = CenterDet(**arch)
     assert architecture({k: tuple(v.shape) for k, v in net.state_dict().items()}) == arch
     assert exported_architecture(export_onnx(net, tmp_path / "small.onnx", {}, input_hw=(64, 96))) == arch
     with pytest.raises(ArchitectureError, match="grown, not shrunk"):
-        widen(CenterDet(), net)
+        grow(CenterDet(), net)
+    with pytest.raises(ArchitectureError, match="grown, not shrunk"):  # fewer blocks
+        grow(net, CenterDet(**{**arch, "blocks": (0, 0, 2, 1)}))
     with pytest.raises(ArchitectureError, match="no parameter 's2.0.weight'"):
         architecture({"conv.weight": (8, 3, 3, 3)})
 
 
-def test_a_wider_network_fine_tunes_from_a_narrower_model_and_exports(tiny_dataset, tmp_path):
+def test_a_larger_network_fine_tunes_from_a_smaller_model_and_exports(tiny_dataset, tmp_path):
     from typer.testing import CliRunner
 
     from tools.cli import app
@@ -366,8 +391,10 @@ def test_a_wider_network_fine_tunes_from_a_narrower_model_and_exports(tiny_datas
     cfg = dict(epochs=1, batch=2, warmup_steps=1, eval_every=0, widths=(8, 16, 24, 32, 40), neck=16, head=8)
     train(tiny_dataset, small, TrainConfig(**cfg))
     grown = tmp_path / "grown.onnx"
-    train(tiny_dataset, grown, TrainConfig(**{**cfg, "neck": 24, "head": 16, "init": str(small)}))
-    assert exported_architecture(grown) == {"widths": (8, 16, 24, 32, 40), "neck": 24, "head": 16}
+    train(tiny_dataset, grown, TrainConfig(**{**cfg, "neck": 24, "head": 16, "blocks": (0, 1, 0, 2),
+                                              "init": str(small)}))
+    assert exported_architecture(grown) == {"widths": (8, 16, 24, 32, 40), "neck": 24, "head": 16,
+                                            "blocks": (0, 1, 0, 2)}
     assert OnnxDetector(grown).detect(np.zeros((360, 640, 3), np.uint8)).xyxy.shape[1] == 4
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
                                    "--init", str(grown), "--widths", "8", "16", "24", "32", "40",

@@ -1,12 +1,14 @@
 """``CenterDet``'s architecture: its default widths, reading them back from weights, growing.
 
-``WIDTHS``, ``NECK``, ``HEAD``: the channels of the shipped model's network, the
-defaults of ``CenterDet`` and of ``lookahead train-detector``.
+``WIDTHS``, ``NECK``, ``HEAD``, ``BLOCKS``: the channels and added residual blocks of the
+shipped model's network, the defaults of ``CenterDet`` and of ``lookahead train-detector``.
 
-``widen(src, dst)`` grows a trained ``CenterDet`` into a wider one that computes the
-same function: it copies every parameter and BatchNorm statistic of ``src`` into the
-matching leading block of ``dst`` (a ``CenterDet`` with at least as many channels
-everywhere). For each convolution weight (out, in, k, k):
+``grow(src, dst)`` grows a trained ``CenterDet`` into a wider and deeper one that computes
+the same function. Deeper: the residual blocks ``dst`` adds at the end of a stage
+(``blocks``) start as the identity (``model.CenterDet``), and keep their own initialisation.
+Wider: it copies every parameter and BatchNorm statistic of ``src`` into the matching
+leading block of ``dst`` (a ``CenterDet`` with at least as many channels everywhere). For
+each convolution weight (out, in, k, k):
 
 * rows of old outputs, columns of old inputs: ``src``'s weights;
 * rows of old outputs, columns of new inputs: zero, so no old channel depends on a new one;
@@ -17,15 +19,16 @@ statistics see the same values), new channels compute something, and nothing rea
 yet -- the heads' columns for them are zero. The first gradient step reaches those
 zero columns (their gradient is the new channels' activity times the loss gradient), so
 fine-tuning starts at the trained model and grows into the new width (Net2Net's
-function-preserving growth, with zero instead of split fan-out).
+function-preserving growth, with zero instead of split fan-out; its deeper growth with
+zero-scaled residual blocks).
 
-``architecture(shapes)`` reads a network's widths back from its weights' shapes, so
-``--init`` can take a checkpoint or an exported model of any width.
+``architecture(shapes)`` reads a network's widths and blocks back from its weights' shapes,
+so ``--init`` can take a checkpoint or an exported model of any size.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # torch is the extra `train`; this module imports without it (constants, error class)
@@ -35,6 +38,9 @@ if TYPE_CHECKING:  # torch is the extra `train`; this module imports without it 
 WIDTHS: tuple[int, int, int, int, int] = (24, 32, 64, 96, 128)  # backbone, strides 2, 4, 8, 16, 32
 NECK = 64  # strides 8, 16
 HEAD = 32  # stride 4
+BLOCKS: tuple[int, int, int, int] = (0, 0, 0, 0)  # residual blocks added to the stages at strides 4, 8, 16, 32
+STAGES = ("s4", "s8", "s16", "s32")
+BASE_LAYERS = 2  # layers of each of those stages before the added blocks
 
 
 class ArchitectureError(ValueError):
@@ -48,8 +54,19 @@ _WIDTH_OF = {
 }
 
 
+def added_blocks(names: Iterable[str]) -> tuple[int, ...]:
+    """The residual blocks added to each stage (``BLOCKS``' layout) of a network with these parameters."""
+    last = dict.fromkeys(STAGES, BASE_LAYERS - 1)
+    for name in names:
+        stage, _, rest = name.partition(".")
+        index = rest.partition(".")[0]
+        if stage in last and index.isdigit():
+            last[stage] = max(last[stage], int(index))
+    return tuple(last[s] - (BASE_LAYERS - 1) for s in STAGES)
+
+
 def architecture(shapes: Mapping[str, tuple[int, ...]]) -> dict:
-    """``CenterDet`` keyword arguments (``widths``, ``neck``, ``head``) from parameter shapes.
+    """``CenterDet`` keyword arguments (``widths``, ``neck``, ``head``, ``blocks``) from parameter shapes.
 
     ``shapes``: parameter name -> shape, for a whole state dict or only some of it (an
     exported model's convolution weights); each must fit the architecture found, else
@@ -59,7 +76,8 @@ def architecture(shapes: Mapping[str, tuple[int, ...]]) -> dict:
     if missing:
         raise ArchitectureError(f"not a CenterDet: no parameter {missing[0]!r}")
     w = {name: int(shapes[key][0]) for key, name in _WIDTH_OF.items()}
-    arch = {"widths": (w["w2"], w["w4"], w["w8"], w["w16"], w["w32"]), "neck": w["neck"], "head": w["head"]}
+    arch = {"widths": (w["w2"], w["w4"], w["w8"], w["w16"], w["w32"]), "neck": w["neck"], "head": w["head"],
+            "blocks": added_blocks(shapes)}
     from tools.detector.model import CenterDet
 
     ref = CenterDet(**arch).state_dict()
@@ -70,8 +88,8 @@ def architecture(shapes: Mapping[str, tuple[int, ...]]) -> dict:
     return arch
 
 
-def widen(src: CenterDet, dst: CenterDet) -> CenterDet:
-    """Copy ``src`` into the wider ``dst`` in place (module docstring); returns ``dst``."""
+def grow(src: CenterDet, dst: CenterDet) -> CenterDet:
+    """Copy ``src`` into the wider or deeper ``dst`` in place (module docstring); returns ``dst``."""
     import torch
 
     with torch.no_grad():
@@ -81,8 +99,9 @@ def widen(src: CenterDet, dst: CenterDet) -> CenterDet:
 
 def _copy_into(src: CenterDet, dst: CenterDet) -> None:
     old, new = src.state_dict(), dst.state_dict()
-    if old.keys() != new.keys():
-        raise ArchitectureError("the two networks have different layers")
+    if not old.keys() <= new.keys():
+        raise ArchitectureError(f"{src.arch} does not fit into {dst.arch} ({next(iter(old.keys() - new.keys()))} "
+                                "has nowhere to go); a network can be grown, not shrunk")
     for k, a in old.items():
         b = new[k]
         if a.ndim != b.ndim or any(x > y for x, y in zip(a.shape, b.shape, strict=True)):

@@ -28,8 +28,9 @@ class ExportedModelError(ModelError):
     """The ONNX file is not an export of this ``CenterDet`` architecture."""
 
 
-def _onnx_convs(path: Path) -> list[tuple]:
-    """(weight, bias or None) of every Conv node of the graph, in graph (execution) order."""
+def _onnx_convs(path: Path, strides: list[int] | None = None) -> list[tuple]:
+    """(weight, bias or None) of every Conv node of the graph, in graph (execution) order;
+    each one's stride appended to ``strides`` when given."""
     import onnx
     from onnx import numpy_helper
 
@@ -49,6 +50,9 @@ def _onnx_convs(path: Path) -> list[tuple]:
         if names[0] not in init or (len(names) > 1 and names[1] not in init):
             raise ExportedModelError(f"{path}: Conv node {node.name!r} has weights that are not constants")
         convs.append((init[names[0]], init[names[1]] if len(names) > 1 else None))
+        if strides is not None:
+            given = [list(a.ints) for a in node.attribute if a.name == "strides"]
+            strides.append(int(given[0][0]) if given else 1)
     return convs
 
 
@@ -75,18 +79,38 @@ def _convs_in_call_order(net) -> list:
     return list(seen.values())
 
 
-def exported_architecture(path: str | Path) -> dict:
-    """``CenterDet`` keyword arguments (widths, neck, head) of the network exported to ``path``.
+def _exported_blocks(path: Path, convs: list[tuple], strides: list[int]) -> tuple[int, ...]:
+    """The residual blocks added to each stage (``arch.BLOCKS``) of an exported network, from where
+    its stages start (the stride-2 convolutions of strides 2..32, in execution order) and where the
+    backbone ends (the neck's first 1 x 1 convolution)."""
+    from tools.detector.arch import BASE_LAYERS
 
-    The file's convolutions, in execution order, are named after the modules a
-    ``CenterDet`` calls in that order (the order does not depend on the widths).
+    starts = [i for i, s in enumerate(strides) if s == 2]
+    ends = [i for i, (w, _) in enumerate(convs) if starts and i > starts[-1] and w.shape[-1] == 1]
+    if len(starts) != 5 or not ends:
+        raise ExportedModelError(f"{path}: not a CenterDet: {len(starts)} stride-2 convolutions, 5 expected")
+    bounds = [*starts[1:], ends[0]]
+    base = (BASE_LAYERS, BASE_LAYERS + 1, BASE_LAYERS + 1, BASE_LAYERS)  # convolutions: a Residual has two
+    added = [(b - a - n) for a, b, n in zip(bounds, bounds[1:], base, strict=False)]
+    if any(x < 0 or x % 2 for x in added):
+        raise ExportedModelError(f"{path}: not a CenterDet: stages of {[b - a for a, b in zip(bounds, bounds[1:], strict=False)]} convolutions")
+    return tuple(x // 2 for x in added)
+
+
+def exported_architecture(path: str | Path) -> dict:
+    """``CenterDet`` keyword arguments (widths, neck, head, blocks) of the network exported to ``path``.
+
+    The blocks come from where its stages start and end (``_exported_blocks``); then the
+    file's convolutions, in execution order, are named after the modules a ``CenterDet``
+    with those blocks calls in that order (the order does not depend on the widths).
     """
     from tools.detector.arch import ArchitectureError, architecture
     from tools.detector.model import CenterDet
 
     path = Path(path)
-    exported = _onnx_convs(path)
-    ref = CenterDet()
+    strides: list[int] = []
+    exported = _onnx_convs(path, strides)
+    ref = CenterDet(blocks=_exported_blocks(path, exported, strides))
     names = {id(m): n for n, m in ref.named_modules()}
     order = [names[id(m)] for m in _convs_in_call_order(ref)]
     if len(exported) != len(order):

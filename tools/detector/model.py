@@ -21,7 +21,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from tools.detector.arch import HEAD, NECK, WIDTHS
+from tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
 
 STRIDE = 4
 
@@ -41,20 +41,47 @@ class Residual(nn.Module):
         return x + self.b(self.a(x))
 
 
+class Basic(nn.Module):
+    """ResNet's basic block, ``relu(x + bn(conv(conv(x))))``, on a non-negative input (a ReLU's).
+
+    Its last BatchNorm's scale starts at zero, so the block starts as the identity (in
+    train mode too) and the first gradient reaches that scale (no ReLU between it and the
+    sum, unlike ``Residual``'s, whose zero output would pass no gradient back)."""
+
+    def __init__(self, c: int) -> None:
+        super().__init__()
+        self.a = conv(c, c)
+        self.b = nn.Sequential(nn.Conv2d(c, c, 3, 1, 1, bias=False), nn.BatchNorm2d(c))
+        nn.init.zeros_(self.b[1].weight)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return F.relu(x + self.b(self.a(x)))
+
+
+def _added(c: int, n: int) -> list[Basic]:
+    """``n`` blocks of ``c`` channels added at the end of a stage, each starting as the identity."""
+    return [Basic(c) for _ in range(n)]
+
+
 class CenterDet(nn.Module):
-    """Backbone + neck + head (module docstring); ``widths`` = channels at strides 2, 4, 8, 16, 32."""
+    """Backbone + neck + head (module docstring); ``widths`` = channels at strides 2, 4, 8, 16, 32;
+    ``blocks`` = residual blocks added at the end of the stages at strides 4, 8, 16, 32.
+
+    An added block (``Basic``) starts as the identity, so a network with more blocks can start
+    from the weights of one with fewer and compute the same function (``arch.grow``).
+    """
 
     def __init__(self, num_classes: int = 8, widths: tuple[int, ...] = WIDTHS, neck: int = NECK,
-                 head: int = HEAD) -> None:
+                 head: int = HEAD, blocks: tuple[int, ...] = BLOCKS) -> None:
         super().__init__()
         w2, w4, w8, w16, w32 = widths
         self.num_classes = num_classes
-        self.arch = {"widths": tuple(widths), "neck": neck, "head": head}
+        self.arch = {"widths": tuple(widths), "neck": neck, "head": head, "blocks": tuple(blocks)}
         self.s2 = conv(3, w2, 2)
-        self.s4 = nn.Sequential(conv(w2, w4, 2), conv(w4, w4))
-        self.s8 = nn.Sequential(conv(w4, w8, 2), Residual(w8))
-        self.s16 = nn.Sequential(conv(w8, w16, 2), Residual(w16))
-        self.s32 = nn.Sequential(conv(w16, w32, 2), conv(w32, w32))
+        self.s4 = nn.Sequential(conv(w2, w4, 2), conv(w4, w4), *_added(w4, blocks[0]))
+        self.s8 = nn.Sequential(conv(w4, w8, 2), Residual(w8), *_added(w8, blocks[1]))
+        self.s16 = nn.Sequential(conv(w8, w16, 2), Residual(w16), *_added(w16, blocks[2]))
+        self.s32 = nn.Sequential(conv(w16, w32, 2), conv(w32, w32), *_added(w32, blocks[3]))
         self.l32, self.l16, self.l8 = conv(w32, neck, k=1), conv(w16, neck, k=1), conv(w8, neck, k=1)
         self.f16, self.f8 = conv(neck, neck), conv(neck, neck)
         self.l4, self.d8 = conv(w4, head, k=1), conv(neck, head, k=1)

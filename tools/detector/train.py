@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from perception.detections import CLASSES
-from tools.detector.arch import HEAD, NECK, WIDTHS
+from tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
 from tools.detector.data import SCALE_RANGE
 
 log = logging.getLogger(__name__)
@@ -64,14 +64,16 @@ class TrainConfig:
     limit: int | None = None  # use only the first N training images (smoke tests)
     init: str | None = None  # start from this checkpoint (state dict .pt, or an exported .onnx) instead of random
     balance: float = 0.5  # crops centre on an object of class c with weight freq(c) ** -balance (``TrainSampler``)
-    # the network (``model.CenterDet``): channels at strides 2..32, neck, head; an ``init`` of
-    # smaller widths is grown into these (``widen``: the same function to start with)
+    # the network (``model.CenterDet``): channels at strides 2..32, neck, head, residual blocks
+    # added at strides 4..32; an ``init`` of smaller widths or fewer blocks is grown into these
+    # (``arch.grow``: the same function to start with)
     widths: tuple[int, ...] = WIDTHS
     neck: int = NECK
     head: int = HEAD
+    blocks: tuple[int, ...] = BLOCKS
 
     def architecture(self) -> dict:
-        return {"widths": tuple(self.widths), "neck": self.neck, "head": self.head}
+        return {"widths": tuple(self.widths), "neck": self.neck, "head": self.head, "blocks": tuple(self.blocks)}
 
 
 def focal_loss(logits, heat, mask):
@@ -193,7 +195,8 @@ def _data_name(data: str | Path | Sequence[str | Path]) -> str:
 def _run_identity(cfg: TrainConfig, data: str | Path | Sequence[str | Path]) -> dict:
     """What a saved state must share with the run resuming it: the data and every option."""
     dirs = [str(d.resolve()) for d in _data_dirs(data)]
-    return {"data": dirs[0] if len(dirs) == 1 else dirs, **asdict(cfg), "crop": list(cfg.crop), "scale": list(cfg.scale), "widths": list(cfg.widths)}
+    return {"data": dirs[0] if len(dirs) == 1 else dirs, **asdict(cfg), "crop": list(cfg.crop), "scale": list(cfg.scale), "widths": list(cfg.widths),
+            "blocks": list(cfg.blocks)}
 
 
 def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[str | Path]) -> dict:
@@ -227,10 +230,10 @@ def init_checkpoint(out: str | Path) -> Path:
 
 
 def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
-    """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower."""
+    """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower or shallower."""
     import torch
 
-    from tools.detector.arch import ArchitectureError, architecture, widen
+    from tools.detector.arch import ArchitectureError, architecture, grow
     from tools.detector.model import CenterDet
 
     if init.suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
@@ -251,7 +254,7 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
     if src.arch != net.arch:
         log.info("%s: grown from %s to %s", init, src.arch, net.arch)
     try:
-        return widen(src, net)
+        return grow(src, net)
     except ArchitectureError as e:
         raise ArchitectureError(f"--init {init}: {e}") from None
 
