@@ -28,9 +28,8 @@ class ExportedModelError(ModelError):
     """The ONNX file is not an export of this ``CenterDet`` architecture."""
 
 
-def _onnx_convs(path: Path, strides: list[int] | None = None) -> list[tuple]:
-    """(weight, bias or None) of every Conv node of the graph, in graph (execution) order;
-    each one's stride appended to ``strides`` when given."""
+def _onnx_convs(path: Path) -> list[tuple]:
+    """(weight, bias or None, stride) of every Conv node of the graph, in graph (execution) order."""
     import onnx
     from onnx import numpy_helper
 
@@ -49,10 +48,8 @@ def _onnx_convs(path: Path, strides: list[int] | None = None) -> list[tuple]:
         names = list(node.input[1:3])
         if names[0] not in init or (len(names) > 1 and names[1] not in init):
             raise ExportedModelError(f"{path}: Conv node {node.name!r} has weights that are not constants")
-        convs.append((init[names[0]], init[names[1]] if len(names) > 1 else None))
-        if strides is not None:
-            given = [list(a.ints) for a in node.attribute if a.name == "strides"]
-            strides.append(int(given[0][0]) if given else 1)
+        strides = [int(a.ints[0]) for a in node.attribute if a.name == "strides"]
+        convs.append((init[names[0]], init[names[1]] if len(names) > 1 else None, strides[0] if strides else 1))
     return convs
 
 
@@ -79,21 +76,27 @@ def _convs_in_call_order(net) -> list:
     return list(seen.values())
 
 
-def _exported_blocks(path: Path, convs: list[tuple], strides: list[int]) -> tuple[int, ...]:
+def _exported_blocks(path: Path, convs: list[tuple]) -> tuple[int, ...]:
     """The residual blocks added to each stage (``arch.BLOCKS``) of an exported network, from where
     its stages start (the stride-2 convolutions of strides 2..32, in execution order) and where the
-    backbone ends (the neck's first 1 x 1 convolution)."""
-    from tools.detector.arch import BASE_LAYERS
+    backbone ends (the neck's first 1 x 1 convolution), against a ``CenterDet`` with none added
+    (each added block is two convolutions)."""
+    from torch import nn
 
-    starts = [i for i, s in enumerate(strides) if s == 2]
-    ends = [i for i, (w, _) in enumerate(convs) if starts and i > starts[-1] and w.shape[-1] == 1]
-    if len(starts) != 5 or not ends:
+    from tools.detector.arch import STAGES
+    from tools.detector.model import CenterDet
+
+    starts = [i for i, (_, _, stride) in enumerate(convs) if stride == 2]
+    end = next((i for i, (w, _, _) in enumerate(convs) if starts and i > starts[-1] and w.shape[-1] == 1), None)
+    if len(starts) != 5 or end is None:
         raise ExportedModelError(f"{path}: not a CenterDet: {len(starts)} stride-2 convolutions, 5 expected")
-    bounds = [*starts[1:], ends[0]]
-    base = (BASE_LAYERS, BASE_LAYERS + 1, BASE_LAYERS + 1, BASE_LAYERS)  # convolutions: a Residual has two
-    added = [(b - a - n) for a, b, n in zip(bounds, bounds[1:], base, strict=False)]
+    bounds = [*starts[1:], end]
+    lengths = [b - a for a, b in zip(bounds, bounds[1:], strict=False)]
+    plain = CenterDet(widths=(1, 1, 1, 1, 1), neck=1, head=1)
+    base = [sum(isinstance(m, nn.Conv2d) for m in getattr(plain, s).modules()) for s in STAGES]
+    added = [n - b for n, b in zip(lengths, base, strict=True)]
     if any(x < 0 or x % 2 for x in added):
-        raise ExportedModelError(f"{path}: not a CenterDet: stages of {[b - a for a, b in zip(bounds, bounds[1:], strict=False)]} convolutions")
+        raise ExportedModelError(f"{path}: not a CenterDet: stages of {lengths} convolutions")
     return tuple(x // 2 for x in added)
 
 
@@ -108,14 +111,13 @@ def exported_architecture(path: str | Path) -> dict:
     from tools.detector.model import CenterDet
 
     path = Path(path)
-    strides: list[int] = []
-    exported = _onnx_convs(path, strides)
-    ref = CenterDet(blocks=_exported_blocks(path, exported, strides))
+    exported = _onnx_convs(path)
+    ref = CenterDet(blocks=_exported_blocks(path, exported))
     names = {id(m): n for n, m in ref.named_modules()}
     order = [names[id(m)] for m in _convs_in_call_order(ref)]
     if len(exported) != len(order):
         raise ExportedModelError(f"{path}: {len(exported)} convolutions, a CenterDet has {len(order)}")
-    shapes = {f"{n}.weight": tuple(w.shape) for n, (w, _) in zip(order, exported, strict=True)}
+    shapes = {f"{n}.weight": tuple(w.shape) for n, (w, _, _) in zip(order, exported, strict=True)}
     try:
         return architecture(shapes)
     except ArchitectureError as e:
@@ -152,7 +154,7 @@ def load_exported(net, path: str | Path, batches: Iterable) -> None:
         raise ExportedModelError(f"{path}: {len(exported)} convolutions, the network has {len(convs)}")
     bns = _batchnorm_after(net)
     with torch.no_grad():
-        for i, (conv, (w, b)) in enumerate(zip(convs, exported, strict=True)):
+        for i, (conv, (w, b, _)) in enumerate(zip(convs, exported, strict=True)):
             if tuple(w.shape) != tuple(conv.weight.shape):
                 raise ExportedModelError(
                     f"{path}: convolution {i} has weights {tuple(w.shape)}, the network {tuple(conv.weight.shape)}"

@@ -195,8 +195,8 @@ def _data_name(data: str | Path | Sequence[str | Path]) -> str:
 def _run_identity(cfg: TrainConfig, data: str | Path | Sequence[str | Path]) -> dict:
     """What a saved state must share with the run resuming it: the data and every option."""
     dirs = [str(d.resolve()) for d in _data_dirs(data)]
-    return {"data": dirs[0] if len(dirs) == 1 else dirs, **asdict(cfg), "crop": list(cfg.crop), "scale": list(cfg.scale), "widths": list(cfg.widths),
-            "blocks": list(cfg.blocks)}
+    options = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(cfg).items()}
+    return {"data": dirs[0] if len(dirs) == 1 else dirs, **options}
 
 
 def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[str | Path]) -> dict:
