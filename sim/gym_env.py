@@ -58,7 +58,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.aeb import Aeb, AebConfig
-from sim.runner import Runner, detector_truth
+from sim.runner import Perceived, Runner
 from sim.scenario import Scenario, WeatherSpec, load_scenario, with_detector
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -152,22 +152,14 @@ class LookaheadEnv(gymnasium.Env):
             return DISCRETE_ACCELS[int(np.asarray(action).reshape(()))]
         return float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], ACCEL_LOW, ACCEL_HIGH))
 
-    def _perceive(self) -> dict:
-        r = self.runner
-        frame, gt, timings = r.frame()
-        dets, tracks, est, assessment, alerts = r.perception.process(
-            frame, detector_truth(gt, r.camera), timings
-        )
-        if r.aeb is not None:
-            crit, nearest = r.perception.critical_in_path(tracks, est, assessment)
-            r.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
-        r.frame_index += 1
-        self._last = (frame, tracks, assessment)
-        return {"frame": frame, "gt": gt, "tracks": tracks, "est": est, "assessment": assessment,
-                "alerts": alerts}
+    def _perceive(self) -> Perceived:
+        p = self.runner.perceive()
+        self.runner.frame_index += 1
+        self._last = (p.frame, p.tracks, p.assessment)
+        return p
 
-    def _track_rows(self, p: dict) -> np.ndarray:
-        est, a, tracks = p["est"], p["assessment"], p["tracks"]
+    def _track_rows(self, p: Perceived) -> np.ndarray:
+        est, a, tracks = p.est, p.assessment, p.tracks
         out = np.zeros((self.max_objects, len(TRACK_FIELDS)), dtype=np.float32)
         n = len(tracks.track_id)
         if n == 0:
@@ -181,35 +173,35 @@ class LookaheadEnv(gymnasium.Env):
         out[: len(order)] = rows
         return out
 
-    def _obs(self, p: dict) -> dict:
-        od = p["frame"].odometry
+    def _obs(self, p: Perceived) -> dict:
+        od = p.frame.odometry
         obs = {
             "tracks": self._track_rows(p),
             "ego": np.clip(np.nan_to_num(np.array([od.speed, od.accel, od.yaw_rate], dtype=np.float32)),
                            -TRACK_BOUND, TRACK_BOUND),
         }
         if self.render_camera:
-            img = p["frame"].image
+            img = p.frame.image
             shape = self.observation_space["image"].shape
             obs["image"] = np.zeros(shape, np.uint8) if img is None else np.ascontiguousarray(img, np.uint8)
         return obs
 
-    def _info(self, p: dict, collisions: list, terms: dict | None = None) -> dict:
+    def _info(self, p: Perceived, collisions: list, terms: dict | None = None) -> dict:
         r = self.runner
         return {
             "t": float(r.world.t),
-            "ground_truth": p["gt"].to_dict(),
-            "assessment": p["assessment"].to_dict(),
-            "alerts": [al.to_dict() for al in p["alerts"]],
+            "ground_truth": p.gt.to_dict(),
+            "assessment": p.assessment.to_dict(),
+            "alerts": [al.to_dict() for al in p.alerts],
             "collisions": [c.to_dict() for c in collisions],
             "aeb_braking": r.world.ego.brake_command is not None,
             "reward_terms": terms or {},
         }
 
     @staticmethod
-    def nearest_in_path(p: dict) -> tuple[float, float]:
+    def nearest_in_path(p: Perceived) -> tuple[float, float]:
         """(range m, ttc s) of the nearest in-path perception track (inf, inf if none)."""
-        est, a = p["est"], p["assessment"]
+        est, a = p.est, p.assessment
         m = np.asarray(a.in_path, bool) & np.isfinite(est.range)
         if not m.any():
             return float("inf"), float("inf")
@@ -225,7 +217,7 @@ class LookaheadEnv(gymnasium.Env):
         self._accel_cmd = 0.0
         self._prev_accel = 0.0
         p = self._perceive()
-        self._prev_accel = float(p["frame"].odometry.accel)
+        self._prev_accel = float(p.frame.odometry.accel)
         return self._obs(p), self._info(p, [])
 
     def step(self, action):
@@ -244,7 +236,7 @@ class LookaheadEnv(gymnasium.Env):
             if collisions:
                 break
         p = self._perceive()
-        od = p["frame"].odometry
+        od = p.frame.odometry
         dt = r.frame_every / sc.rate
         jerk = (od.accel - self._prev_accel) / dt
         self._prev_accel = float(od.accel)

@@ -133,6 +133,20 @@ class PerceptionStack:
 
 
 @dataclass
+class Perceived:
+    """One camera frame, its ground truth, and what the perception stack made of it."""
+
+    frame: Frame
+    gt: GroundTruth
+    detections: Detections
+    tracks: Tracks
+    est: Estimates
+    assessment: Assessment
+    alerts: list[Alert]
+    timings: dict[str, float]  # ms per stage
+
+
+@dataclass
 class RunSummary:
     ticks: int
     frames: int
@@ -271,8 +285,10 @@ class Runner:
             self.close()
         return summary
 
-    def _emit(self, sim_ms: float, collisions: list) -> None:
-        t_start = time.perf_counter()
+    def perceive(self) -> Perceived:
+        """The current camera frame through the perception stack, and the AEB's decision on it.
+
+        Leaves ``frame_index`` for the caller to advance once the frame is recorded."""
         frame, gt, timings = self.frame()
         dets, tracks, est, assessment, alerts = self.perception.process(
             frame, detector_truth(gt, self.camera), timings
@@ -280,6 +296,12 @@ class Runner:
         if self.aeb is not None:
             crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
             self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
+        return Perceived(frame, gt, dets, tracks, est, assessment, alerts, timings)
+
+    def _emit(self, sim_ms: float, collisions: list) -> None:
+        t_start = time.perf_counter()
+        p = self.perceive()
+        frame, timings = p.frame, p.timings
         timings["sim"] = sim_ms
         w = self.world
         x, y, yaw = w.ego_pose()
@@ -287,8 +309,8 @@ class Runner:
                "brake": w.ego.brake_command}
         record = TickRecord(
             tick=w.tick, frame_index=self.frame_index, t=w.t, ego=ego, frame=frame,
-            ground_truth=gt, detections=dets, tracks=tracks, estimates=est, assessments=assessment,
-            alerts=alerts, collisions=list(collisions), timings=timings,
+            ground_truth=p.gt, detections=p.detections, tracks=p.tracks, estimates=p.est,
+            assessments=p.assessment, alerts=p.alerts, collisions=list(collisions), timings=timings,
         )
         t0 = time.perf_counter()
         for s in self.sinks:

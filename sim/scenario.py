@@ -40,19 +40,9 @@ from perception.estimator import EstimatorConfig
 from perception.preprocess import PreprocessConfig
 from perception.tracker import TrackerConfig
 from sim.aeb import AebConfig
+from sim.shapes import SUBTYPES
 
 ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
-SUBTYPES: dict[str, tuple[str, ...]] = {
-    "pedestrian": ("adult", "child"),
-    "cyclist": ("bicycle",),
-    "motorcyclist": ("e-bike", "motorcycle"),
-    "tricycle": ("tricycle",),
-    "car": ("sedan", "suv", "hatchback"),
-    "truck": ("truck",),
-    "bus": ("bus",),
-    "animal": ("dog", "deer", "cow"),
-    "obstacle": ("barrier", "cone", "box"),
-}
 
 Pos = Annotated[float, Field(ge=0)]
 
