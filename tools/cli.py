@@ -607,9 +607,9 @@ def eval_detector(
     shown = "; ".join(" ".join(f"{v:.3g}" for v in w) for w in zoom) or "none, the whole frame only"
     print(f"zoom windows (x0 y0 x1 y1 [zoom]): {shown}")
     print(f"{'split':32s} {'AP50':>6s} {'pooled':>6s} {'R@P95':>6s} {'P':>6s} {'R':>6s}  per-class AP50")
+    f = lambda v: f"{v:6.3f}" if v is not None else "     -"  # noqa: E731
     for sp, m in results.items():
         pc = " ".join(f"{k[:4]}={v['ap50']:.2f}" for k, v in m["per_class"].items())
-        f = lambda v: f"{v:6.3f}" if v is not None else "     -"  # noqa: E731
         print(f"{sp[-32:]:32s} {f(m['ap50'])} {f(m['ap50_pooled'])} {f(m['recall_at_p95'])} "
               f"{f(m['precision'])} {f(m['recall'])}  {pc}")
     recall = lambda t: " ".join(f"{k}={v['found'] / v['gt']:.2f}" if v["gt"] else f"{k}=-" for k, v in t.items())  # noqa: E731
@@ -622,6 +622,11 @@ def eval_detector(
     print("recall by visible box height (px):")
     for sp, m in results.items():
         print(f"{sp[-32:]:32s} {recall(m['outcomes']['by_height'])}")
+    print("false positives above the threshold by kind, and AP50 / R@P95 with that kind not counted:")
+    for sp, m in results.items():
+        fp = m["false_positives"]
+        print(f"{sp[-32:]:32s} " + " ".join(
+            f"{k} {v['count']} ({f(v['ap50']).strip()}/{f(v['recall_at_p95']).strip()})" for k, v in fp.items()))
     if out is not None:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(results, indent=2) + "\n")

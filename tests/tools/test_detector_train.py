@@ -102,6 +102,37 @@ def test_each_object_not_found_is_told_apart_as_wrong_class_loose_or_missed():
     assert sum(v["found"] for v in out["by_class"].values()) == round(m["recall"] * m["gt"])
 
 
+def test_each_false_positive_is_told_apart_and_what_removing_its_kind_would_gain():
+    from tools.detector.data import Split
+
+    gt = np.array([[10, 10, 50, 90], [100, 10, 140, 90]], np.float32)  # a pedestrian, a car
+    split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 4])],
+                  visible=[np.ones(2, np.float32)], ranges=[np.array([10.0, 20.0])], names=["a.png"])
+    boxes = np.array([
+        [10, 10, 50, 90],    # 0.90 pedestrian: found
+        [100, 10, 140, 90],  # 0.30 car: found, ranked last
+        [11, 10, 51, 90],    # 0.85 pedestrian again: a duplicate
+        [100, 10, 140, 90],  # 0.80 cyclist on the car: wrong class
+        [30, 10, 70, 90],    # 0.95 pedestrian half off the pedestrian: badly boxed, ranked first
+        [120, 10, 160, 90],  # 0.60 truck half off the car: wrong class and box
+        [250, 10, 290, 90],  # 0.50 animal on nothing: background
+    ], np.float64)
+    score = np.array([0.9, 0.3, 0.85, 0.8, 0.95, 0.6, 0.5])
+    cls = np.array([0, 4, 0, 1, 0, 5, 7])
+
+    m = evaluate_split(split, lambda img: (boxes, score, cls), conf=0.25, min_size=0)
+    fp = m["false_positives"]
+    assert [fp[k]["count"] for k in ("duplicate", "wrong_class", "badly_boxed", "wrong_class_and_box",
+                                     "background")] == [1, 1, 1, 1, 1]
+    assert fp["all"]["count"] == 5 and m["fp"] == 5
+    # the pedestrian's AP is halved by the loose box ranked above it (the duplicate ranks below):
+    # AP50 mean (0.5 + 1) / 2; the classes the other false positives carry have no objects
+    assert m["ap50"] == 0.75 and fp["badly_boxed"]["ap50"] == 1.0 and fp["duplicate"]["ap50"] == 0.75
+    # pooled, the loose box ranks first: while it counts, precision never reaches 0.95
+    assert m["recall_at_p95"] == 0.0 and fp["background"]["recall_at_p95"] == 0.0
+    assert fp["all"]["ap50"] == 1.0 and fp["all"]["recall_at_p95"] == 1.0
+
+
 def test_a_minimum_height_makes_shorter_objects_dont_care_as_kitti_does():
     from tools.detector.data import Split
 

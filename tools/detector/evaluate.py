@@ -23,7 +23,13 @@ Reported (``evaluate_split``):
   (matched by a box of its class), else ``wrong_class`` (a box of another class at
   IoU >= 0.5), else ``loose`` (some box at IoU >= ``LOOSE_IOU``: found, badly
   boxed), else ``missed`` -- where to look when recall falls short; and per band of
-  visible box height (``HEIGHT_BANDS``, px), which tells pixels short from objects hard.
+  visible box height (``HEIGHT_BANDS``, px), which tells pixels short from objects hard;
+* ``false_positives``: what each false positive is (``fp_kinds``, after TIDE's error
+  types: a ``duplicate`` of a found object, the ``wrong_class`` on an object, an object
+  ``badly_boxed``, ``wrong_class_and_box``, or ``background`` near no labelled object),
+  how many score above ``conf``, and AP50 mean and R@P95 with that kind not counted --
+  what removing those errors alone would gain; ``all``: with no false positive at all,
+  the ceiling the objects not found leave.
 
 ``min_height`` (px, default 0) narrows the evaluated set to objects whose visible box is
 at least that tall, the rest becoming don't care -- KITTI's difficulty rule (its
@@ -62,6 +68,7 @@ PRECISION_FLOOR = 0.95
 TP, FP, IGNORED = 1, 0, -1
 OUTCOMES = ("found", "wrong_class", "loose", "missed")
 LOOSE_IOU = 0.1
+FP_KINDS = ("duplicate", "wrong_class", "badly_boxed", "wrong_class_and_box", "background")
 RANGE_BANDS = (5.0, 10.0, 20.0, 30.0, 40.0, 50.0)  # m, band edges
 HEIGHT_BANDS = (0.0, 8.0, 12.0, 16.0, 25.0, 40.0, np.inf)  # px, visible box height band edges
 
@@ -93,6 +100,31 @@ def gt_outcomes(
     other = np.where(np.asarray(cls)[:, None] != np.asarray(gt_cls)[None, :], iou, 0.0).max(axis=0, initial=0.0)
     near = iou.max(axis=0, initial=0.0)
     return np.where(found, 0, np.where(other >= IOU_THRESHOLD, 1, np.where(near >= LOOSE_IOU, 2, 3)))
+
+
+def fp_kinds(
+    xyxy: np.ndarray, cls: np.ndarray, status: np.ndarray, gt: np.ndarray, gt_cls: np.ndarray,
+    min_size: float = MIN_MATCH_SIZE_PX,
+) -> np.ndarray:
+    """Index into ``FP_KINDS`` (M,) of each false positive by its best overlap with any labelled
+    box (-1 for detections that are not false positives): IoU >= 0.5 with its own class (a
+    duplicate: the object was found by a higher score) or another class; else IoU >=
+    ``LOOSE_IOU`` with its own class or another; else background."""
+    same = class_iou(xyxy, cls, gt, gt_cls, min_size).max(axis=1, initial=0.0)
+    near = class_iou(xyxy, None, gt, None, min_size).max(axis=1, initial=0.0)
+    kind = np.select([same >= IOU_THRESHOLD, near >= IOU_THRESHOLD, same >= LOOSE_IOU, near >= LOOSE_IOU],
+                     [0, 1, 2, 3], default=4)
+    return np.where(status == FP, kind, -1)
+
+
+def _fp_table(status: np.ndarray, kind: np.ndarray, score: np.ndarray, cls: np.ndarray, gt_cls: np.ndarray,
+              conf: float) -> dict:
+    def without(drop: np.ndarray) -> dict:
+        m = _summary(np.where(drop, IGNORED, status), score, cls, gt_cls, conf)
+        return {"count": int(np.sum(drop & (score > conf))), "ap50": m["ap50"],
+                "recall_at_p95": m["recall_at_p95"]}
+
+    return {**{k: without(kind == i) for i, k in enumerate(FP_KINDS)}, "all": without(status == FP)}
 
 
 def _outcome_table(outcome: np.ndarray, gt_cls: np.ndarray, gt_range: np.ndarray, gt_height: np.ndarray) -> dict:
@@ -160,7 +192,7 @@ def evaluate_split(
     ``min_size``: boxes grown to at least this many px for IoU (0: plain IoU); ``min_height``:
     objects with a shorter visible box (px) are don't care."""
     status = {False: [], True: []}
-    scores, classes, gt_classes, gt_ranges, gt_heights, outcomes = [], [], [], [], [], []
+    scores, classes, gt_classes, gt_ranges, gt_heights, outcomes, kinds = [], [], [], [], [], [], []
     for i in range(len(split.images)):
         boxes = split.boxes[i]
         xyxy, score, cls = detect(split.images[i])
@@ -171,6 +203,7 @@ def evaluate_split(
         evaluated = (rng >= range_m[0]) & (rng <= range_m[1]) & (vis >= min_visible) & (height >= min_height)
         for agn in (False, True):
             status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn, min_size))
+        kinds.append(fp_kinds(xyxy, cls, status[False][-1], boxes, split.classes[i], min_size))
         scores.append(score)
         classes.append(cls)
         gt_classes.append(split.classes[i][evaluated])
@@ -181,11 +214,13 @@ def evaluate_split(
                                     min_size))
     cat = lambda parts, dt: np.concatenate(parts).astype(dt) if parts else np.zeros(0, dt)  # noqa: E731
     score, cls, gt_cls = cat(scores, np.float64), cat(classes, np.int64), cat(gt_classes, np.int64)
-    result = _summary(cat(status[False], np.int64), score, cls, gt_cls, conf)
+    aware = cat(status[False], np.int64)
+    result = _summary(aware, score, cls, gt_cls, conf)
     agn = _summary(cat(status[True], np.int64), score, np.zeros_like(cls), np.zeros_like(gt_cls), conf)
     result["agnostic"] = {k: agn[k] for k in ("ap50", "recall_at_p95", "precision", "recall")}
     result["outcomes"] = _outcome_table(cat(outcomes, np.int64), gt_cls, cat(gt_ranges, np.float64),
                                         cat(gt_heights, np.float64))
+    result["false_positives"] = _fp_table(aware, cat(kinds, np.int64), score, cls, gt_cls, conf)
     result["images"] = len(split.images)
     result["conf"] = conf
     result["min_box_px"] = min_size
