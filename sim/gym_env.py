@@ -23,6 +23,9 @@ Observation (``Dict``):
 - ``ego``: ``(3,)`` float32 ``[speed m/s, accel m/s^2, yaw_rate rad/s]``.
 - ``image`` (``render_camera=True`` only): the camera frame, ``(H, W, 3)`` uint8.
 
+``render()`` (``render_mode="rgb_array"``): the camera frame with the tracks boxed or,
+without a camera, a top-down view of the tracks (``sim.birdseye``), RGB uint8.
+
 Reward per step (``dt`` = the frame period, s)::
 
     r = speed * dt / 10                      # progress
@@ -58,6 +61,7 @@ import numpy as np
 from gymnasium import spaces
 
 from sim.aeb import Aeb, AebConfig
+from sim.birdseye import RISK_COLOURS, birdseye
 from sim.runner import Perceived, Runner
 from sim.scenario import Scenario, WeatherSpec, load_scenario, with_detector
 
@@ -71,7 +75,6 @@ PROGRESS_SCALE = 10.0
 JERK_WEIGHT = 0.02
 HEADWAY_S = 1.0
 COLLISION_PENALTY = 10.0
-RISK_COLOURS = {0: (0, 200, 0), 1: (0, 200, 0), 2: (255, 200, 0), 3: (255, 120, 0), 4: (255, 0, 0)}
 
 
 class LookaheadEnv(gymnasium.Env):
@@ -134,7 +137,7 @@ class LookaheadEnv(gymnasium.Env):
         self._seed = sc.seed
         self._accel_cmd = 0.0
         self._prev_accel = 0.0
-        self._last = None  # (frame, tracks) of the latest observation, for render()
+        self._last: Perceived | None = None  # the latest observation's frame and tracks, for render()
 
     # ------------------------------------------------------------------ helpers
     def _build(self, seed: int) -> None:
@@ -155,7 +158,7 @@ class LookaheadEnv(gymnasium.Env):
     def _perceive(self) -> Perceived:
         p = self.runner.perceive()
         self.runner.frame_index += 1
-        self._last = (p.frame, p.tracks, p.assessment)
+        self._last = p
         return p
 
     def _track_rows(self, p: Perceived) -> np.ndarray:
@@ -254,11 +257,16 @@ class LookaheadEnv(gymnasium.Env):
         return self._obs(p), reward, terminated, truncated, self._info(p, collisions, terms)
 
     def render(self):
+        """With ``render_mode="rgb_array"``: the camera frame with the tracks boxed in their risk's
+        colour or, without a camera, a top-down view of the tracks (``sim.birdseye``)."""
         if self.render_mode != "rgb_array" or self._last is None:
             return None
-        frame, tracks, a = self._last
+        p = self._last
+        frame, tracks, a = p.frame, p.tracks, p.assessment
         if frame.image is None:
-            return None
+            cfg = self.runner.perception.intent_config
+            return birdseye(p.est.range, p.est.lateral, p.est.half_width, a.risk,
+                            cfg.ego_half_width + cfg.corridor_margin)
         import cv2
 
         img = np.ascontiguousarray(frame.image, dtype=np.uint8).copy()

@@ -9,6 +9,7 @@ import numpy as np
 from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: F401  (registers the environments)
+from sim import birdseye
 from sim.gym_env import LookaheadEnv
 from sim.scenario import load_scenario
 
@@ -52,11 +53,21 @@ def test_check_env_camera_tiny():
         env.close()
 
 
-def test_render_none_without_camera():
-    env = LookaheadEnv(render_mode="rgb_array")
-    env.reset(seed=0)
-    assert env.render() is None
-    env.close()
+def test_render_without_camera_is_a_top_down_view_of_the_tracks():
+    env = LookaheadEnv(render_mode="rgb_array")  # a stationary car ahead; no camera
+    try:
+        env.reset(seed=0)
+        for _ in range(5):
+            obs, *_ = env.step(np.array([0.0], np.float32))
+        img = env.render()
+        assert img.shape == (*birdseye.SIZE_PX, 3) and img.dtype == np.uint8
+        rng, lat, risk, valid = obs["tracks"][0][[0, 1, 5, 7]]  # the nearest track
+        assert valid == 1 and rng > 5
+        col, row = birdseye.to_pixel(rng + 1.0, lat)  # inside its box
+        assert tuple(img[int(row), int(col)]) == birdseye.RISK_COLOURS[int(risk)]
+        assert LookaheadEnv().render() is None  # no render mode: nothing
+    finally:
+        env.close()
 
 
 def test_reset_seed_is_reproducible():
