@@ -67,6 +67,22 @@ class Risk(IntEnum):
     CRITICAL = 4
 
 
+#: One colour per risk level (RGB), indexed by ``Risk`` value, SAFE green -> CRITICAL red: the
+#: palette of every picture (annotated video, rerun, the gym env's render).
+RISK_COLOURS: tuple[tuple[int, int, int], ...] = (
+    (40, 200, 60),  # SAFE
+    (170, 220, 40),  # LOW
+    (255, 210, 0),  # MEDIUM
+    (255, 120, 0),  # HIGH
+    (235, 20, 20),  # CRITICAL
+)
+
+
+def risk_colour(risk: int) -> tuple[int, int, int]:
+    """RGB colour of a risk level (clipped to SAFE..CRITICAL)."""
+    return RISK_COLOURS[min(max(int(risk), 0), len(RISK_COLOURS) - 1)]
+
+
 class Behaviour(IntEnum):
     UNKNOWN = 0
     STANDING = 1

@@ -13,11 +13,12 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from intent.labels import risk_colour
+
 M_PER_PX = 0.25
 SIZE_PX = (360, 160)  # (height, width): 90 m ahead, 20 m to each side
 OBJECT_LENGTH_M = 2.0  # tracks carry no length; every box is drawn this long
 MIN_HALF_WIDTH_M = 0.25
-RISK_COLOURS = {0: (0, 200, 0), 1: (0, 200, 0), 2: (255, 200, 0), 3: (255, 120, 0), 4: (255, 0, 0)}
 BACKGROUND, GRID, CORRIDOR, EGO = (30, 30, 30), (70, 70, 70), (110, 110, 160), (220, 220, 220)
 
 
@@ -51,6 +52,6 @@ def birdseye(
     for i in np.flatnonzero(np.isfinite(rng) & np.isfinite(lat)):
         c0, r_near = to_pixel(rng[i], lat[i] + half[i], size)
         c1, r_far = to_pixel(rng[i] + OBJECT_LENGTH_M, lat[i] - half[i], size)
-        colour = RISK_COLOURS.get(int(risk[i]), RISK_COLOURS[0])
+        colour = risk_colour(int(risk[i]))
         cv2.rectangle(img, (int(round(c0)), int(round(r_far))), (int(round(c1)), int(round(r_near))), colour, -1)
     return img

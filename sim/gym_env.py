@@ -60,8 +60,9 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
+from intent.labels import risk_colour
 from sim.aeb import Aeb, AebConfig
-from sim.birdseye import RISK_COLOURS, birdseye
+from sim.birdseye import birdseye
 from sim.runner import Perceived, Runner
 from sim.scenario import Scenario, WeatherSpec, load_scenario, with_detector
 
@@ -274,7 +275,7 @@ class LookaheadEnv(gymnasium.Env):
             if not np.all(np.isfinite(box)):
                 continue
             x0, y0, x1, y1 = (int(round(v)) for v in box)
-            colour = RISK_COLOURS.get(int(a.risk[i]) if i < len(a.risk) else 0, (0, 200, 0))
+            colour = risk_colour(int(a.risk[i]) if i < len(a.risk) else 0)
             cv2.rectangle(img, (x0, y0), (x1, y1), colour, 1)
         return img
 

@@ -59,18 +59,3 @@ def save_rgb(path, img: np.ndarray) -> None:
     """Write an RGB image (converting to BGR at the OpenCV edge)."""
     if not cv2.imwrite(str(path), cv2.cvtColor(img, cv2.COLOR_RGB2BGR)):
         raise OSError(f"{path}: could not write image")
-
-
-#: One colour per risk level (RGB), indexed by ``intent.labels.Risk`` value: SAFE green -> CRITICAL red.
-RISK_COLOURS: tuple[tuple[int, int, int], ...] = (
-    (40, 200, 60),  # SAFE
-    (170, 220, 40),  # LOW
-    (255, 210, 0),  # MEDIUM
-    (255, 120, 0),  # HIGH
-    (235, 20, 20),  # CRITICAL
-)
-
-
-def risk_colour(risk: int) -> tuple[int, int, int]:
-    """RGB colour of a risk level (clipped to SAFE..CRITICAL)."""
-    return RISK_COLOURS[min(max(int(risk), 0), len(RISK_COLOURS) - 1)]

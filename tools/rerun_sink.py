@@ -32,11 +32,11 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from intent.labels import LABEL_NAMES, Label, Risk
+from intent.labels import LABEL_NAMES, RISK_COLOURS, Label, Risk
 from perception.camera import CameraModel
 from perception.detections import CLASSES
 from sim.records import TickRecord
-from tools.draw import CLASS_COLOURS, RISK_COLOURS
+from tools.draw import CLASS_COLOURS
 from tools.rundir import OutputError
 
 log = logging.getLogger(__name__)

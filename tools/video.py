@@ -40,11 +40,10 @@ import cv2
 import numpy as np
 
 from intent.alerts import Alert
-from intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, Label, Risk
+from intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, Label, Risk, risk_colour
 from perception.detections import CLASSES
 from perception.tracker import TrackState
 from sim.records import TickRecord
-from tools.draw import risk_colour
 from tools.rundir import OutputError
 
 log = logging.getLogger(__name__)

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.birdseye import BACKGROUND, RISK_COLOURS, SIZE_PX, birdseye, to_pixel
+from intent.labels import risk_colour
+from sim.birdseye import BACKGROUND, SIZE_PX, birdseye, to_pixel
 
 
 def test_left_is_left_far_is_up_and_each_object_wears_its_risk():
@@ -14,12 +15,12 @@ def test_left_is_left_far_is_up_and_each_object_wears_its_risk():
     h, w = SIZE_PX
     col, row = to_pixel(21.0, 3.0)  # 1 m into the first object's box
     assert col < w / 2 and row == h - 21.0 / 0.25
-    assert tuple(img[int(row), int(col)]) == RISK_COLOURS[4]
+    assert tuple(img[int(row), int(col)]) == risk_colour(4)
     col, row = to_pixel(41.0, -1.0)  # the second, right of centre and further up
     assert col > w / 2 and row < h - 80
-    assert tuple(img[int(row), int(col)]) == RISK_COLOURS[2]
+    assert tuple(img[int(row), int(col)]) == risk_colour(2)
     # the object with no range is not drawn: only the first object is in the risk-4 colour
-    red = np.all(img == RISK_COLOURS[4], axis=-1)
+    red = np.all(img == risk_colour(4), axis=-1)
     rows, cols = np.nonzero(red)
     assert cols.max() < w / 2 and rows.min() >= int(h - 22.0 / 0.25) - 1
 
@@ -27,6 +28,6 @@ def test_left_is_left_far_is_up_and_each_object_wears_its_risk():
 def test_an_empty_scene_is_the_background_grid_corridor_and_ego():
     img = birdseye(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, int), corridor_half_width=1.4)
     assert tuple(img[5, 5]) == BACKGROUND
-    assert not np.any(np.all(img == RISK_COLOURS[4], axis=-1))
+    assert not np.any(np.all(img == risk_colour(4), axis=-1))
     col, _ = to_pixel(0.0, 1.4)
     assert tuple(img[100, int(round(col))]) != BACKGROUND  # the corridor line

@@ -9,6 +9,7 @@ import numpy as np
 from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: F401  (registers the environments)
+from intent.labels import risk_colour
 from sim import birdseye
 from sim.gym_env import LookaheadEnv
 from sim.scenario import load_scenario
@@ -64,7 +65,7 @@ def test_render_without_camera_is_a_top_down_view_of_the_tracks():
         rng, lat, risk, valid = obs["tracks"][0][[0, 1, 5, 7]]  # the nearest track
         assert valid == 1 and rng > 5
         col, row = birdseye.to_pixel(rng + 1.0, lat)  # inside its box
-        assert tuple(img[int(row), int(col)]) == birdseye.RISK_COLOURS[int(risk)]
+        assert tuple(img[int(row), int(col)]) == risk_colour(int(risk))
         assert LookaheadEnv().render() is None  # no render mode: nothing
     finally:
         env.close()

@@ -11,12 +11,11 @@ import numpy as np
 import pytest
 
 from intent.alerts import Alert
-from intent.labels import Risk
+from intent.labels import Risk, risk_colour
 from sim.records import RecordCollector
 from sim.runner import Runner
 from sim.scenario import load_scenario
 from tools import video
-from tools.draw import risk_colour
 from tools.video import VideoSink, find_cjk_font
 
 ROOT = Path(__file__).resolve().parents[2]
