@@ -266,7 +266,7 @@ class LookaheadEnv(gymnasium.Env):
         frame, tracks, a = p.frame, p.tracks, p.assessment
         if frame.image is None:
             cfg = self.runner.perception.intent_config
-            return birdseye(p.est.range, p.est.lateral, p.est.half_width, a.risk,
+            return birdseye(p.est.range, p.est.lateral, p.est.half_width, tracks.class_id, a.risk,
                             cfg.ego_half_width + cfg.corridor_margin)
         import cv2
 
