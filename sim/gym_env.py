@@ -11,7 +11,9 @@ Action: ``Box(-8, 3, (1,), float32)``, the ego's longitudinal acceleration
 ego controller: the env binds a function returning the action to the ego
 *instance's* ``longitudinal_accel`` (a per-instance monkeypatch; ``sim/ego.py``
 is unchanged). ``EgoVehicle.act`` still applies ``brake_command`` (AEB) on
-top, never lets braking reverse the ego, and keeps lane-centring steering.
+top, never lets braking reverse the ego, and keeps lane-centring steering. An agent that
+wants actions in [-1, 1] (as many RL libraries advise) wraps the env with gymnasium's
+``RescaleAction(env, np.float32(-1), np.float32(1))``: -1 brakes at -8, 1 accelerates at 3.
 
 Observation (``Dict``):
 

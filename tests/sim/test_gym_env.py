@@ -6,6 +6,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
 from gymnasium.utils.env_checker import check_env
 
 import sim  # noqa: F401  (registers the environments)
@@ -67,6 +68,19 @@ def test_render_without_camera_is_a_top_down_view_of_the_tracks():
         col, row = birdseye.to_pixel(rng + 1.0, lat)  # inside its box
         assert tuple(img[int(row), int(col)]) == risk_colour(int(risk))
         assert LookaheadEnv().render() is None  # no render mode: nothing
+    finally:
+        env.close()
+
+
+def test_a_normalised_action_space_is_gymnasiums_rescale_wrapper():
+    env = gym.wrappers.RescaleAction(gym.make("lookahead/ForwardTracks-v0"), np.float32(-1), np.float32(1))
+    try:
+        assert env.action_space.low[0] == -1 and env.action_space.high[0] == 1
+        env.reset(seed=0)
+        env.step(np.array([-1.0], np.float32))
+        assert env.unwrapped._accel_cmd == pytest.approx(-8.0, abs=1e-6)
+        env.step(np.array([1.0], np.float32))
+        assert env.unwrapped._accel_cmd == pytest.approx(3.0, abs=1e-6)
     finally:
         env.close()
 
