@@ -18,9 +18,10 @@ from perception.detections import CLASSES
 
 M_PER_PX = 0.25
 SIZE_PX = (360, 160)  # (height, width): 90 m ahead, 20 m to each side
-#: Typical length (m) of each class in ``perception.detections.CLASSES`` order.
+#: Typical length (m) of each class of ``perception.detections.CLASSES``; others get ``DEFAULT_LENGTH_M``.
 CLASS_LENGTH_M = {"pedestrian": 0.5, "cyclist": 1.8, "motorcyclist": 2.0, "tricycle": 2.5, "car": 4.5,
                   "truck": 8.0, "bus": 12.0, "animal": 1.2}
+DEFAULT_LENGTH_M = 2.0
 MIN_HALF_WIDTH_M = 0.25
 BACKGROUND, GRID, CORRIDOR, EGO = (30, 30, 30), (70, 70, 70), (110, 110, 160), (220, 220, 220)
 
@@ -54,7 +55,9 @@ def birdseye(
     half = np.maximum(half, MIN_HALF_WIDTH_M)
     for i in np.flatnonzero(np.isfinite(rng) & np.isfinite(lat)):
         c0, r_near = to_pixel(rng[i], lat[i] + half[i], size)
-        c1, r_far = to_pixel(rng[i] + CLASS_LENGTH_M[CLASSES[int(class_id[i])]], lat[i] - half[i], size)
+        k = int(class_id[i])
+        length = CLASS_LENGTH_M[CLASSES[k]] if 0 <= k < len(CLASSES) else DEFAULT_LENGTH_M
+        c1, r_far = to_pixel(rng[i] + length, lat[i] - half[i], size)
         colour = risk_colour(int(risk[i]))
         cv2.rectangle(img, (int(round(c0)), int(round(r_far))), (int(round(c1)), int(round(r_near))), colour, -1)
     return img
