@@ -581,8 +581,8 @@ def eval_detector(
         "--min-box", min=0.0, help="grow boxes smaller than this (px) before IoU, as all scoring does; 0: plain IoU"
     )] = 8.0,
     min_height: Annotated[float, typer.Option(
-        "--min-height", min=0.0, help="objects whose visible box is shorter than this (px) are don't care "
-        "(KITTI's difficulty rule; its Moderate set: 25)"
+        "--min-height", min=0.0, help="objects whose visible box is shorter than this (px), and shorter "
+        "detections that match none, are don't care (KITTI's difficulty rule; its Moderate set: 25)"
     )] = 0.0,
     windows: Annotated[str | None, typer.Option(help=WINDOWS_HELP)] = None,
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,

@@ -133,21 +133,24 @@ def test_each_false_positive_is_told_apart_and_what_removing_its_kind_would_gain
     assert fp["all"]["ap50"] == 1.0 and fp["all"]["recall_at_p95"] == 1.0
 
 
-def test_a_minimum_height_makes_shorter_objects_dont_care_as_kitti_does():
+def test_a_minimum_height_makes_shorter_objects_and_detections_dont_care_as_kitti_does():
     from tools.detector.data import Split
 
     gt = np.array([[10, 10, 50, 90], [100, 40, 104, 50], [200, 40, 204, 50]], np.float32)  # 80, 10, 10 px tall
     split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 0])],
                   visible=[np.ones(3, np.float32)], ranges=[np.array([10.0, 40.0, 40.0])], names=["a.png"])
 
-    def detect(img):  # the tall one, one short one found, the other short one missed
-        return np.array([[10, 10, 50, 90], [100, 40, 104, 50]], np.float64), np.array([0.9, 0.8]), np.array([0, 0])
+    def detect(img):  # the tall one; one short one found; a short box and a tall box on nothing
+        xyxy = np.array([[10, 10, 50, 90], [100, 40, 104, 50], [250, 40, 254, 50], [260, 10, 300, 90]], np.float64)
+        return xyxy, np.array([0.9, 0.8, 0.7, 0.6]), np.array([0, 0, 0, 0])
 
     every = evaluate_split(split, detect, min_size=0)
-    assert every["gt"] == 3 and every["tp"] == 2
+    assert every["gt"] == 3 and every["tp"] == 2 and every["fp"] == 2
     assert every["outcomes"]["by_height"]["8-12"] == {"gt": 2, "found": 1, "wrong_class": 0, "loose": 0, "missed": 1}
     tall = evaluate_split(split, detect, min_size=0, min_height=25)
-    assert tall["gt"] == 1 and tall["tp"] == 1 and tall["fp"] == 0  # the short one found is neither TP nor FP
+    # the short one found and the short box on nothing are neither TP nor FP; the tall false box stays false
+    assert tall["gt"] == 1 and tall["tp"] == 1 and tall["fp"] == 1
+    assert tall["false_positives"]["background"]["count"] == 1
     assert tall["recall"] == 1.0 and tall["ap50"] == 1.0 and tall["min_height_px"] == 25
 
 

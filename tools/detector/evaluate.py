@@ -31,9 +31,12 @@ Reported (``evaluate_split``):
   what removing those errors alone would gain; ``all``: with no false positive at all,
   the ceiling the objects not found leave.
 
-``min_height`` (px, default 0) narrows the evaluated set to objects whose visible box is
-at least that tall, the rest becoming don't care -- KITTI's difficulty rule (its
-Moderate and Hard sets start at 25 px): the accuracy of objects a detector can resolve.
+``min_height`` (px, default 0) narrows the evaluation to what is at least that tall, as
+KITTI's difficulty rule does (its Moderate and Hard sets start at 25 px): objects with a
+shorter visible box are don't care, and so are detections with a shorter box that match
+nothing (KITTI's devkit ignores every detection under the height; here one that matches an
+evaluated object still finds it, where the devkit drops that object from the count) -- the
+accuracy on what a detector can resolve.
 
 Detections are computed at a low score threshold (``AP_CONF``) once; operating-point
 figures keep those with score > ``conf``.
@@ -76,13 +79,16 @@ HEIGHT_BANDS = (0.0, 8.0, 12.0, 16.0, 25.0, 40.0, np.inf)  # px, visible box hei
 def match_image(
     xyxy: np.ndarray, score: np.ndarray, cls: np.ndarray, gt: np.ndarray, gt_cls: np.ndarray,
     evaluated: np.ndarray, agnostic: bool = False, min_size: float = MIN_MATCH_SIZE_PX,
+    min_height: float = 0.0,
 ) -> np.ndarray:
-    """Status (M,) of each detection: TP, FP or IGNORED (module docstring)."""
+    """Status (M,) of each detection: TP, FP or IGNORED (module docstring); a detection
+    shorter than ``min_height`` px is never a false positive."""
     dc, gc = (None, None) if agnostic else (cls, gt_cls)
     order = np.argsort(-score, kind="stable")
     iou = class_iou(xyxy, dc, gt[evaluated], None if gc is None else gc[evaluated], min_size)
     tp = greedy_match(iou, order) >= 0
     ignored = ~tp & dont_care_hits(xyxy, dc, gt[~evaluated], None if gc is None else gc[~evaluated], min_size)
+    ignored |= ~tp & (xyxy[:, 3] - xyxy[:, 1] < min_height)
     return np.where(tp, TP, np.where(ignored, IGNORED, FP))
 
 
@@ -190,7 +196,7 @@ def evaluate_split(
 ) -> dict:
     """Accuracy of ``detect`` (RGB image -> xyxy, score, class id in image px) on ``split``;
     ``min_size``: boxes grown to at least this many px for IoU (0: plain IoU); ``min_height``:
-    objects with a shorter visible box (px) are don't care."""
+    objects with a shorter visible box (px), and shorter detections that match none, are don't care."""
     status = {False: [], True: []}
     scores, classes, gt_classes, gt_ranges, gt_heights, outcomes, kinds = [], [], [], [], [], [], []
     for i in range(len(split.images)):
@@ -202,7 +208,8 @@ def evaluate_split(
         height = boxes[:, 3] - boxes[:, 1]
         evaluated = (rng >= range_m[0]) & (rng <= range_m[1]) & (vis >= min_visible) & (height >= min_height)
         for agn in (False, True):
-            status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn, min_size))
+            status[agn].append(match_image(xyxy, score, cls, boxes, split.classes[i], evaluated, agn, min_size,
+                                           min_height))
         kinds.append(fp_kinds(xyxy, cls, status[False][-1], boxes, split.classes[i], min_size))
         scores.append(score)
         classes.append(cls)
