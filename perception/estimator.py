@@ -621,7 +621,9 @@ class Estimator:
         return len(self._filters)
 
     # ------------------------------------------------------------ priors
-    def _prior_of(self, class_id: np.ndarray, key: str) -> np.ndarray:
+    def prior_of(self, class_id: np.ndarray, key: str) -> np.ndarray:
+        """The class prior ``key`` (a ``ClassPrior`` field) of each class id; ids outside ``CLASSES``
+        get ``default_prior``'s."""
         cid = np.asarray(class_id, dtype=np.int64)
         idx = np.where((cid >= 0) & (cid < len(CLASSES)), cid, len(CLASSES))
         return self._prior[key][idx]
@@ -649,8 +651,8 @@ class Estimator:
         x1, y1, x2, y2 = b.T
         w_px, h_px = x2 - x1, y2 - y1
         ok = np.all(np.isfinite(b), axis=1) & (w_px > 0) & (h_px > 0) & np.all(np.abs(b) < 1e6, axis=1)
-        H, sH = self._prior_of(cid, "height"), self._prior_of(cid, "height_sigma")
-        W, sW = self._prior_of(cid, "width"), self._prior_of(cid, "width_sigma")
+        H, sH = self.prior_of(cid, "height"), self.prior_of(cid, "height_sigma")
+        W, sW = self.prior_of(cid, "width"), self.prior_of(cid, "width_sigma")
         # a side or bottom edge within its noise of the image border may be the border: cut there
         # (not the top edge: a box cut at both ends keeps no range cue but the bound)
         margin = cfg.edge_margin_px
@@ -689,7 +691,7 @@ class Estimator:
         xg_all = gp[:, 0, 0]
         dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
-        sig_g = np.hypot(sig_g, (xg_all - mx) * self._prior_of(cid, "contact_height_sigma") / mz)
+        sig_g = np.hypot(sig_g, (xg_all - mx) * self.prior_of(cid, "contact_height_sigma") / mz)
         g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > _MIN_DEPTH)
         x_g = np.where(g_ok, xg_all, np.nan)
         sig_g = np.where(g_ok, sig_g, np.nan)
@@ -713,7 +715,7 @@ class Estimator:
         xc_w = W / dt
         sig_dt = np.sqrt(2.0) * np.hypot(cfg.contact_sigma_px, cfg.edge_sigma_rel * w_px) / cam.fx
         sig_w = xc_w * np.hypot(sW / W, sig_dt / dt)
-        w_cue = self._prior_of(cid, "width_cue").astype(bool)
+        w_cue = self.prior_of(cid, "width_cue").astype(bool)
         w_ok = (
             ok & w_cue & ~cut_left & ~cut_right & ~cut_bottom & (t_r < 0.0) & (t_l > 0.0)
             & (cos_h >= cfg.width_cue_min_cos) & (xc_w > _MIN_DEPTH) & np.isfinite(sig_w)
@@ -794,7 +796,7 @@ class Estimator:
         # border reaches y_b there): the nearest part is out of view, up to the footprint's x
         # extent nearer than the visible part. The measured face is an upper bound; its std is
         # widened by the extent's uniform std, and the filter does not settle on it.
-        extent = self._prior_of(cid, "length") * cos_h + W * np.sqrt(1.0 - cos_h**2)
+        extent = self.prior_of(cid, "length") * cos_h + W * np.sqrt(1.0 - cos_h**2)
         y_b = my + xc * np.where(cut_left, t_l, t_r)
         half = np.minimum(hw, 0.5 * W)
         beyond = np.where(cut_left, lat - half >= y_b, lat + half <= y_b)
@@ -843,7 +845,7 @@ class Estimator:
         lateral = m_y + xf tan_y + lateral_offset.
         """
         cfg, my = self.config, self.camera.mount[1]
-        L, sL = self._prior_of(cid, "length"), self._prior_of(cid, "length_sigma")
+        L, sL = self.prior_of(cid, "length"), self.prior_of(cid, "length_sigma")
         s_edge = np.hypot(cfg.contact_sigma_px, cfg.edge_sigma_rel * w_px) / self.camera.fx  # one edge (rad)
         left_of, right_of = t_r > 0.0, t_l < 0.0  # the box wholly left / right of the camera's column
         whole = ~cut_left & ~cut_right
@@ -880,8 +882,8 @@ class Estimator:
         """
         mx, mz = self.camera.mount[0], self.camera.mount[2]
         sin_h = np.sqrt(1.0 - cos_h**2)
-        off = self._prior_of(cid, "contact_offset") * cos_h + self._prior_of(cid, "contact_offset_side") * sin_h
-        clr = np.minimum(self._prior_of(cid, "clearance"), 0.9 * mz)
+        off = self.prior_of(cid, "contact_offset") * cos_h + self.prior_of(cid, "contact_offset_side") * sin_h
+        clr = np.minimum(self.prior_of(cid, "clearance"), 0.9 * mz)
         xg_f = np.maximum(x_g - off, mx + (x_g - mx) * (mz - clr) / mz)
         hh = np.maximum(H, clr + 0.1)
         xh_f = np.maximum(x_h - off * mz / hh, mx + (x_h - mx) * (hh - clr) / hh)
@@ -1101,16 +1103,16 @@ class Estimator:
             q = np.zeros((6, 6))
             if name == "cv":
                 f[4, 4] = f[5, 5] = 0.0  # no acceleration
-                sa = float(self._prior_of(cid, "accel_sigma")[0])
+                sa = float(self.prior_of(cid, "accel_sigma")[0])
                 if cfg.motion_model == "imm":
                     sa *= cfg.imm_quiet_accel_scale
                 q[:4, :4] = Q_discrete_white_noise(2, dt=dt, var=sa**2, block_size=2, order_by_dim=False)
                 if cfg.motion_model == "imm":  # acceleration unknown to this model, not zero: mixing
-                    q[4:, 4:] = np.eye(2) * float(self._prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
+                    q[4:, 4:] = np.eye(2) * float(self.prior_of(cid, "accel_sigma")[0]) ** 2  # keeps ca's open
             else:
                 f[2, 4] = f[3, 5] = dt  # v += a dt
                 f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
-                dens = float(self._prior_of(cid, "jerk_sigma")[0]) ** 2
+                dens = float(self.prior_of(cid, "jerk_sigma")[0]) ** 2
                 q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
             models.append((f, q))
         return models
@@ -1165,7 +1167,7 @@ class Estimator:
         """Filter at the measurement; ground velocity from the class prior N(0, speed_sigma^2)
         per axis, optionally fused with the tracker's box rates (scale change)."""
         cfg, cam = self.config, self.camera
-        var0 = float(self._prior_of(np.array([cls]), "speed_sigma")[0]) ** 2
+        var0 = float(self.prior_of(np.array([cls]), "speed_sigma")[0]) ** 2
         ground, var = np.zeros(2), var0
         if cfg.init_from_box_rates:
             xc = z[0] - cam.mount[0]

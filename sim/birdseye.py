@@ -4,8 +4,8 @@ Ego frame (architecture page): x forward, y left, metres. The picture is RGB uin
 front bumper at the bottom centre, forward up and left to the left, ``M_PER_PX`` metres per
 pixel: grey range lines every 10 m, the ego's corridor (``corridor_half_width`` each side of
 its centre line) as two lines, and each object with a finite range as a box
-``2 * half_width`` wide and its class's typical length (``CLASS_LENGTH_M``; tracks carry no
-length) long from its nearest point, filled in its risk's colour.
+``2 * half_width`` wide and ``length_m`` long (tracks carry no length: the env passes the
+estimator's class prior) from its nearest point, filled in its risk's colour.
 """
 
 from __future__ import annotations
@@ -14,14 +14,9 @@ import cv2
 import numpy as np
 
 from intent.labels import risk_colour
-from perception.detections import CLASSES
 
 M_PER_PX = 0.25
 SIZE_PX = (360, 160)  # (height, width): 90 m ahead, 20 m to each side
-#: Typical length (m) of each class of ``perception.detections.CLASSES``; others get ``DEFAULT_LENGTH_M``.
-CLASS_LENGTH_M = {"pedestrian": 0.5, "cyclist": 1.8, "motorcyclist": 2.0, "tricycle": 2.5, "car": 4.5,
-                  "truck": 8.0, "bus": 12.0, "animal": 1.2}
-DEFAULT_LENGTH_M = 2.0
 MIN_HALF_WIDTH_M = 0.25
 BACKGROUND, GRID, CORRIDOR, EGO = (30, 30, 30), (70, 70, 70), (110, 110, 160), (220, 220, 220)
 
@@ -33,7 +28,7 @@ def to_pixel(x: np.ndarray, y: np.ndarray, size: tuple[int, int] = SIZE_PX) -> t
 
 
 def birdseye(
-    range_m: np.ndarray, lateral_m: np.ndarray, half_width_m: np.ndarray, class_id: np.ndarray,
+    range_m: np.ndarray, lateral_m: np.ndarray, half_width_m: np.ndarray, length_m: np.ndarray,
     risk: np.ndarray, corridor_half_width: float, size: tuple[int, int] = SIZE_PX,
 ) -> np.ndarray:
     """(H, W, 3) uint8 RGB top-down picture of objects (module docstring); (N,) arrays, NaN
@@ -55,9 +50,7 @@ def birdseye(
     half = np.maximum(half, MIN_HALF_WIDTH_M)
     for i in np.flatnonzero(np.isfinite(rng) & np.isfinite(lat)):
         c0, r_near = to_pixel(rng[i], lat[i] + half[i], size)
-        k = int(class_id[i])
-        length = CLASS_LENGTH_M[CLASSES[k]] if 0 <= k < len(CLASSES) else DEFAULT_LENGTH_M
-        c1, r_far = to_pixel(rng[i] + length, lat[i] - half[i], size)
+        c1, r_far = to_pixel(rng[i] + length_m[i], lat[i] - half[i], size)
         colour = risk_colour(int(risk[i]))
         cv2.rectangle(img, (int(round(c0)), int(round(r_far))), (int(round(c1)), int(round(r_near))), colour, -1)
     return img

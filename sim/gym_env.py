@@ -267,8 +267,10 @@ class LookaheadEnv(gymnasium.Env):
         p = self._last
         frame, tracks, a = p.frame, p.tracks, p.assessment
         if frame.image is None:
-            cfg = self.runner.perception.intent_config
-            return birdseye(p.est.range, p.est.lateral, p.est.half_width, tracks.class_id, a.risk,
+            stack = self.runner.perception
+            cfg = stack.intent_config
+            return birdseye(p.est.range, p.est.lateral, p.est.half_width,
+                            stack.estimator.prior_of(tracks.class_id, "length"), a.risk,
                             cfg.ego_half_width + cfg.corridor_margin)
         import cv2
 
