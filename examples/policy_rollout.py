@@ -18,7 +18,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-import sim  # noqa: F401  (registers lookahead/ForwardTracks-v0)
+import lookahead.sim  # noqa: F401  (registers lookahead/ForwardTracks-v0)
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = ("stationary_car.yaml", "ped_crossing_nearside.yaml")

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from intent.labels import (
+from lookahead.intent.labels import (
     BEHAVIOUR_NAMES,
     LABEL_NAMES,
     LABEL_NAMES_ZH,

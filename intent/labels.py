@@ -29,9 +29,9 @@ from enum import IntEnum
 
 import numpy as np
 
-from intent.config import IntentConfig
-from perception.detections import CLASS_ID
-from perception.estimator import time_to_collision
+from lookahead.intent.config import IntentConfig
+from lookahead.perception.detections import CLASS_ID
+from lookahead.perception.estimator import time_to_collision
 
 
 class Label(IntEnum):

@@ -210,10 +210,10 @@ from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.stats import truncnorm
 
-from perception.camera import CameraModel
-from perception.detections import CLASSES, Detections
-from perception.frame import EgoOdometry
-from perception.tracker import Tracks, TrackState
+from lookahead.perception.camera import CameraModel
+from lookahead.perception.detections import CLASSES, Detections
+from lookahead.perception.frame import EgoOdometry
+from lookahead.perception.tracker import Tracks, TrackState
 
 log = logging.getLogger(__name__)
 

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from perception.camera import CameraModel
+from lookahead.perception.camera import CameraModel
 
 
 @dataclass

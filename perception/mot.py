@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.detections import Detections
+from lookahead.perception.detections import Detections
 
 _MIN_COLS, _MAX_COLS = 6, 10
 

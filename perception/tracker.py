@@ -87,8 +87,8 @@ from enum import IntEnum
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from perception.detections import Detections
-from perception.geometry import box_area, grow_boxes
+from lookahead.perception.detections import Detections
+from lookahead.perception.geometry import box_area, grow_boxes
 
 log = logging.getLogger(__name__)
 

@@ -11,5 +11,5 @@ except ImportError:  # gymnasium is optional for the rest of sim
 if _gym is not None:
     for _id, _camera in (("lookahead/ForwardCamera-v0", True), ("lookahead/ForwardTracks-v0", False)):
         if _id not in _gym.registry:
-            _gym.register(id=_id, entry_point="sim.gym_env:LookaheadEnv",
+            _gym.register(id=_id, entry_point="lookahead.sim.gym_env:LookaheadEnv",
                           kwargs={"render_camera": _camera})

@@ -14,7 +14,7 @@ import numpy as np
 from highway_env.road.road import Road
 from highway_env.vehicle.kinematics import Vehicle
 
-from sim.scenario import ActionSpec, ActorSpec, StepSpec
+from lookahead.sim.scenario import ActionSpec, ActorSpec, StepSpec
 
 #: Comfortable |acceleration| (m/s^2) per class when a script gives none.
 DEFAULT_ACCEL = {

@@ -13,7 +13,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from intent.labels import risk_colour
+from lookahead.intent.labels import risk_colour
 
 M_PER_PX = 0.25
 SIZE_PX = (360, 160)  # (height, width): 90 m ahead, 20 m to each side

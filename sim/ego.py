@@ -15,7 +15,7 @@ import numpy as np
 from highway_env.vehicle.behavior import IDMVehicle
 from highway_env.vehicle.kinematics import Vehicle
 
-from sim.scenario import EgoSpec
+from lookahead.sim.scenario import EgoSpec
 
 CRUISE_GAIN = 0.6  # 1/s, speed error -> acceleration
 ACCEL_LIMITS = (-8.0, 3.0)  # m/s^2, controller output range (without AEB)

@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from intent.config import IntentConfig
-from intent.labels import Kinematics, assess
-from perception.camera import CameraModel, truncation
-from perception.detections import CLASS_ID
-from perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
-from sim.world import World, ego_frame
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Kinematics, assess
+from lookahead.perception.camera import CameraModel, truncation
+from lookahead.perception.detections import CLASS_ID
+from lookahead.perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
+from lookahead.sim.world import World, ego_frame
 
 GT_MAX_RANGE = 200.0  # m; actors farther than this (or > 10 m behind) are left out
 OBSTACLE_CLASS_ID = -1  # static obstacles are not a detection class

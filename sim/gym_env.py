@@ -62,14 +62,14 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
-from intent.labels import risk_colour
-from sim.aeb import Aeb, AebConfig
-from sim.birdseye import birdseye
-from sim.runner import Perceived, Runner
-from sim.scenario import Scenario, WeatherSpec, load_scenario, with_detector
+from lookahead.intent.labels import risk_colour
+from lookahead.sim.aeb import Aeb, AebConfig
+from lookahead.sim.birdseye import birdseye
+from lookahead.sim.catalogue import SCENARIOS
+from lookahead.sim.runner import Perceived, Runner
+from lookahead.sim.scenario import Scenario, WeatherSpec, load_scenario, with_detector
 
-ROOT = Path(__file__).resolve().parents[1]
-DEFAULT_SCENARIO = ROOT / "scenarios" / "stationary_car.yaml"
+DEFAULT_SCENARIO = SCENARIOS / "stationary_car.yaml"
 ACCEL_LOW, ACCEL_HIGH = -8.0, 3.0
 DISCRETE_ACCELS = (-8.0, -4.0, 0.0, 1.5, 3.0)
 TRACK_FIELDS = ("range", "lateral", "range_rate", "lateral_rate", "class_id", "risk", "label", "valid")

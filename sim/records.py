@@ -8,10 +8,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from perception.detections import Detections
-from perception.frame import Frame
-from sim.ego import Collision
-from sim.groundtruth import GroundTruth
+from lookahead.perception.detections import Detections
+from lookahead.perception.frame import Frame
+from lookahead.sim.ego import Collision
+from lookahead.sim.groundtruth import GroundTruth
 
 
 def jsonable(obj: Any) -> Any:

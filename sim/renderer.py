@@ -42,9 +42,9 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
-from perception.camera import CameraModel
-from sim.layout import Rect, RoadLayout
-from sim.shapes import ActorShape, Part
+from lookahead.perception.camera import CameraModel
+from lookahead.sim.layout import Rect, RoadLayout
+from lookahead.sim.shapes import ActorShape, Part
 
 log = logging.getLogger(__name__)
 

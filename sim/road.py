@@ -14,8 +14,8 @@ import numpy as np
 from highway_env.road.lane import LineType, StraightLane
 from highway_env.road.road import RoadNetwork
 
-from sim.layout import Marking, Rect, RoadLayout
-from sim.scenario import RoadSpec
+from lookahead.sim.layout import Marking, Rect, RoadLayout
+from lookahead.sim.scenario import RoadSpec
 
 MAIN_FROM, MAIN_TO = "main0", "main1"
 CROSS_NB = ("cross_s", "cross_n")  # cross street, lane heading world +y

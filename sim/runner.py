@@ -12,30 +12,28 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
-from intent.alerts import Alert, AlertConfig, AlertManager
-from intent.config import IntentConfig
-from intent.labels import Assessment, Kinematics, Risk, assess
-from perception.camera import CameraModel
-from perception.detections import Detections
-from perception.detectors.base import Detector, DetectorTruth
-from perception.estimator import Estimates, Estimator, EstimatorConfig
-from perception.frame import Frame
-from perception.preprocess import PreprocessChain
-from perception.tracker import Tracker, TrackerConfig, Tracks
-from sim.aeb import Aeb
-from sim.groundtruth import GroundTruth, compute_ground_truth
-from sim.records import Sink, TickRecord
-from sim.scenario import DetectorSpec, Scenario, ScenarioError
-from sim.world import World
+from lookahead.intent.alerts import Alert, AlertConfig, AlertManager
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Assessment, Kinematics, Risk, assess
+from lookahead.perception.camera import CameraModel
+from lookahead.perception.detections import Detections
+from lookahead.perception.detectors.base import Detector, DetectorTruth
+from lookahead.perception.estimator import Estimates, Estimator, EstimatorConfig
+from lookahead.perception.frame import Frame
+from lookahead.perception.preprocess import PreprocessChain
+from lookahead.perception.tracker import Tracker, TrackerConfig, Tracks
+from lookahead.sim.aeb import Aeb
+from lookahead.sim.catalogue import DEFAULT_MODEL
+from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
+from lookahead.sim.records import Sink, TickRecord
+from lookahead.sim.scenario import DetectorSpec, Scenario, ScenarioError
+from lookahead.sim.world import World
 
 log = logging.getLogger(__name__)
 
-#: The shipped detector (``models/MODEL_CARD.md``), used by ``kind: auto`` when rendering.
-DEFAULT_MODEL = Path(__file__).resolve().parents[1] / "models" / "lookahead-det.onnx"
 
 STAGES = ("sim", "render", "gt", "preprocess", "detect", "track", "estimate", "intent", "sinks", "tick")
 
@@ -59,12 +57,12 @@ def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detect
     """The scenario's detector (``gt`` noise model or an ``onnx`` model, see ``resolve_detector``)."""
     spec = resolve_detector(spec, render)
     if spec.kind == "onnx":
-        from perception.detectors.onnx_detector import OnnxDetector
+        from lookahead.perception.detectors.onnx_detector import OnnxDetector
 
         if not render:
             raise ScenarioError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
         return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows)
-    from perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
+    from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
 
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
 
@@ -194,7 +192,7 @@ class Runner:
         self.renderer = None
         self.weather = None  # sim.weather.Weather: applied to the rendered RGB (not clear)
         if render:
-            from sim.renderer import Renderer
+            from lookahead.sim.renderer import Renderer
 
             self.renderer = Renderer(
                 self.camera, self.world.layout, seed=scenario.seed,
@@ -203,7 +201,7 @@ class Runner:
             for a in self.world.agents:
                 self.renderer.add_actor(a.identity.actor_id, a.identity.shape)
             if scenario.weather.kind != "clear":
-                from sim.weather import Weather
+                from lookahead.sim.weather import Weather
 
                 self.weather = Weather.from_scenario(
                     scenario, self.camera, self.world.layout, far=self.renderer.far

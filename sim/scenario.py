@@ -30,17 +30,17 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError, core_schema
 
-from intent.alerts import AlertConfig
-from intent.config import IntentConfig
-from intent.labels import Risk
-from perception.detections import CLASSES
-from perception.detectors.gt_detector import GtNoiseConfig
-from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
-from perception.estimator import EstimatorConfig
-from perception.preprocess import PreprocessConfig
-from perception.tracker import TrackerConfig
-from sim.aeb import AebConfig
-from sim.shapes import SUBTYPES
+from lookahead.intent.alerts import AlertConfig
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Risk
+from lookahead.perception.detections import CLASSES
+from lookahead.perception.detectors.gt_detector import GtNoiseConfig
+from lookahead.perception.detectors.windows import DEFAULT_WINDOWS, check_windows
+from lookahead.perception.estimator import EstimatorConfig
+from lookahead.perception.preprocess import PreprocessConfig
+from lookahead.perception.tracker import TrackerConfig
+from lookahead.sim.aeb import AebConfig
+from lookahead.sim.shapes import SUBTYPES
 
 ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
 

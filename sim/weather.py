@@ -76,9 +76,9 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from perception.camera import CameraModel
-from sim.layout import RoadLayout
-from sim.scenario import Scenario, WeatherSpec
+from lookahead.perception.camera import CameraModel
+from lookahead.sim.layout import RoadLayout
+from lookahead.sim.scenario import Scenario, WeatherSpec
 
 log = logging.getLogger(__name__)
 
@@ -160,7 +160,9 @@ def lamp_heads(layout: RoadLayout) -> np.ndarray:
     zone's long axis, 0.4 m inside its road side, the head 1.25 m further toward the road
     at ``_LAMP_HEIGHT``. tests/sim/test_weather.py checks the renderer draws them there.
     """
-    from sim.renderer import _disjoint  # the renderer's own asphalt split (same side choice)
+    from lookahead.sim.renderer import (
+        _disjoint,  # the renderer's own asphalt split (same side choice)
+    )
 
     asphalt = _disjoint(layout.asphalt)
     road = np.array([[(a.x0 + a.x1) / 2, (a.y0 + a.y1) / 2] for a in asphalt]).reshape(-1, 2)

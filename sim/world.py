@@ -14,12 +14,12 @@ import numpy as np
 from highway_env.road.road import Road
 from highway_env.vehicle.behavior import IDMVehicle
 
-from perception.frame import EgoOdometry
-from sim.actors import Identity, ScriptedActor, wrap
-from sim.ego import Collision, EgoVehicle
-from sim.road import MAIN_FROM, MAIN_TO, build_road
-from sim.scenario import Scenario, TriggerSpec
-from sim.shapes import make_shape
+from lookahead.perception.frame import EgoOdometry
+from lookahead.sim.actors import Identity, ScriptedActor, wrap
+from lookahead.sim.ego import Collision, EgoVehicle
+from lookahead.sim.road import MAIN_FROM, MAIN_TO, build_road
+from lookahead.sim.scenario import Scenario, TriggerSpec
+from lookahead.sim.shapes import make_shape
 
 TRAFFIC_MIX = (("car", 0.8), ("truck", 0.1), ("bus", 0.1))
 

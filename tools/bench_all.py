@@ -13,17 +13,16 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.records import RecordCollector
-from sim.runner import STAGES, Runner
-from sim.scenario import load_scenario
-from tools.bench import bench_sim, case, machine
-from tools.bench_detect import bench_detect
-from tools.bench_env import bench_env
-from tools.bench_sinks import bench_sinks
-from tools.bench_sweep import bench_sweep
-from tools.bench_track import bench_track
-
-ROOT = Path(__file__).resolve().parents[1]
+from lookahead.sim.catalogue import SCENARIOS
+from lookahead.sim.records import RecordCollector
+from lookahead.sim.runner import STAGES, Runner
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.bench import bench_sim, case, machine
+from lookahead.tools.bench_detect import bench_detect
+from lookahead.tools.bench_env import bench_env
+from lookahead.tools.bench_sinks import bench_sinks
+from lookahead.tools.bench_sweep import bench_sweep
+from lookahead.tools.bench_track import bench_track
 
 
 def bench_loop(scenario_path: Path) -> dict:
@@ -40,7 +39,7 @@ def bench_loop(scenario_path: Path) -> dict:
 
 
 def bench_all(repeats: int = 3) -> dict:
-    scen = ROOT / "scenarios"
+    scen = SCENARIOS
     parts = {
         "sim": bench_sim(scen / "highway_traffic.yaml"),
         "track": bench_track(None, repeats=repeats),

@@ -20,10 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.detectors.windows import DEFAULT_WINDOWS
-from sim.runner import DEFAULT_MODEL, Runner
-from sim.scenario import DetectorSpec, load_scenario
-from tools.bench import case, machine
+from lookahead.perception.detectors.windows import DEFAULT_WINDOWS
+from lookahead.sim.catalogue import DEFAULT_MODEL, SCENARIOS
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import DetectorSpec, load_scenario
+from lookahead.tools.bench import case, machine
 
 
 def render_frames(scenario_path: Path, n: int, size: tuple[int, int] | None = None) -> list[np.ndarray]:
@@ -49,10 +50,9 @@ def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None,
                  repeats: int = 3, windows: Sequence[Sequence[float]] = DEFAULT_WINDOWS,
                  size: tuple[int, int] | None = None) -> dict:
     """The benchmark record (module docstring); ``size``: camera (width, height) px, default the scenario's."""
-    from perception.detectors.onnx_detector import OnnxDetector
+    from lookahead.perception.detectors.onnx_detector import OnnxDetector
 
-    root = Path(__file__).resolve().parents[1]
-    images = render_frames(scenario_path or root / "scenarios" / "urban_mix.yaml", frames, size)
+    images = render_frames(scenario_path or SCENARIOS / "urban_mix.yaml", frames, size)
     det = OnnxDetector(model, windows=windows)
     det.warmup(3)
     samples: dict[str, list[float]] = {"pipeline": [], "session_run": [], "preprocess": [], "postprocess": [],

@@ -20,9 +20,9 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 
-import sim  # noqa: F401  (registers the lookahead/ environments)
-from sim.scenario import load_scenario
-from tools.bench import bare_highway, case, machine
+import lookahead.sim  # noqa: F401  (registers the lookahead/ environments)
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.bench import bare_highway, case, machine
 
 ENV_ID = "lookahead/ForwardTracks-v0"
 

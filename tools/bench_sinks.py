@@ -12,17 +12,17 @@ from __future__ import annotations
 import tempfile
 from pathlib import Path
 
-from sim.records import RecordCollector
-from sim.runner import Runner
-from sim.scenario import load_scenario
-from tools.bench import case, machine
+from lookahead.sim.records import RecordCollector
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.bench import case, machine
 
 
 def _all_sinks(scenario, out: Path) -> list:
-    from tools.rerun_sink import RerunSink
-    from tools.rundir import RunDirWriter
-    from tools.store import SqliteStore
-    from tools.video import VideoSink
+    from lookahead.tools.rerun_sink import RerunSink
+    from lookahead.tools.rundir import RunDirWriter
+    from lookahead.tools.store import SqliteStore
+    from lookahead.tools.video import VideoSink
 
     return [
         RunDirWriter(out, scenario),

@@ -24,18 +24,18 @@ import tempfile
 import time
 from pathlib import Path
 
-from tools.bench import case, machine
-from tools.sweep import load_sweep, new_pool, run_sweep
+from lookahead.sim.catalogue import SCENARIOS
+from lookahead.tools.bench import case, machine
+from lookahead.tools.sweep import load_sweep, new_pool, run_sweep
 
-ROOT = Path(__file__).resolve().parents[1]
-WARM_SCENARIO = ROOT / "scenarios" / "stationary_car.yaml"
+WARM_SCENARIO = SCENARIOS / "stationary_car.yaml"
 
 
 def _warm_task(run_dir: str, hold_s: float) -> int:
     """Run a 1-s scenario in this worker (first-run caches), then hold so the next
     warm-up task lands on another worker; returns the worker's pid."""
-    from sim.runner import Runner
-    from sim.scenario import load_scenario
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import load_scenario
 
     t0 = time.perf_counter()
     sc = load_scenario(WARM_SCENARIO).model_copy(update={"duration": 1.0})

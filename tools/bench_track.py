@@ -56,18 +56,24 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.detections import Detections
-from perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections
-from perception.tracker import Tracker, TrackerConfig
-from tools.bench import case, machine
-from tools.mot_eval import evaluate_mot, mot_tracker_config, normalise_scores, read_seqinfo
+from lookahead.perception.detections import Detections
+from lookahead.perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections
+from lookahead.perception.tracker import Tracker, TrackerConfig
+from lookahead.sim.catalogue import SCENARIOS
+from lookahead.tools.bench import case, machine
+from lookahead.tools.mot_eval import (
+    evaluate_mot,
+    mot_tracker_config,
+    normalise_scores,
+    read_seqinfo,
+)
 
 log = logging.getLogger(__name__)
 
 ROOT = Path(__file__).resolve().parents[1]
 MOT15_DIR = ROOT / "tests" / "data" / "mot15"
 MOT15_SEQUENCES = ("TUD-Campus", "TUD-Stadtmitte", "KITTI-17", "KITTI-13")
-SIM_SCENARIOS = tuple(ROOT / "scenarios" / f"{n}.yaml" for n in ("highway_traffic", "urban_mix", "cut_in"))
+SIM_SCENARIOS = tuple(SCENARIOS / f"{n}.yaml" for n in ("highway_traffic", "urban_mix", "cut_in"))
 TRACKERS = ("ours", "deepsort")
 DEEPSORT_EMBED_DIM = 1
 
@@ -114,7 +120,7 @@ def mot15_sequence(name: str, data_dir: Path = MOT15_DIR) -> TrackSequence:
 
 def sort_outputs(seq: TrackSequence) -> list[FrameOut]:
     """The SORT reference (``tools.sort_reference.Sort()``, defaults) over the sequence, untimed."""
-    from tools.sort_reference import Sort
+    from lookahead.tools.sort_reference import Sort
 
     sort = Sort()
     outs = []
@@ -141,7 +147,7 @@ class _Collector:
 
 
 def _gt_frame(gt):
-    from tools.scoring.io import GTFrame
+    from lookahead.tools.scoring.io import GTFrame
 
     return GTFrame(
         actor_id=gt.actor_id, class_id=gt.class_id, visible=gt.visible, visible_fraction=gt.visible_fraction,
@@ -150,7 +156,7 @@ def _gt_frame(gt):
 
 
 def _track_frame(out: FrameOut):
-    from tools.scoring.io import TrackFrame
+    from lookahead.tools.scoring.io import TrackFrame
 
     ids, xyxy, cls = out
     k = len(ids)
@@ -164,9 +170,9 @@ def _track_frame(out: FrameOut):
 
 def sim_sequence(scenario_path: Path) -> TrackSequence:
     """A scenario run without rendering: its GT-noise detections, scored like ``lookahead score``."""
-    from sim.runner import Runner
-    from sim.scenario import load_scenario
-    from tools.scoring.tracking import frame_rows
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import load_scenario
+    from lookahead.tools.scoring.tracking import frame_rows
 
     scenario = load_scenario(scenario_path)
     sink = _Collector()
@@ -393,7 +399,7 @@ def print_track_bench(result: dict, console) -> None:
     """Timing cases and ratio (``tools.bench.print_bench``), then MOTA/IDF1 per sequence."""
     from rich.table import Table
 
-    from tools.bench import print_bench
+    from lookahead.tools.bench import print_bench
 
     print_bench(result, console)
     for name in TRACKERS:

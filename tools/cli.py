@@ -17,22 +17,24 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
+from lookahead.sim.catalogue import SCENARIOS, resolve_path
+
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="lookahead: forward-camera perception testbench")
 bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks; each writes a JSON file.")
 app.add_typer(bench_app, name="bench")
 console = Console(stderr=True)
-
+SCENARIO_HELP = "scenario YAML, or a packaged scenario's name (ped_crossing_nearside)"
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that mean the user's input or environment is wrong (not a bug)."""
-    from perception.detectors.onnx_detector import ModelError
-    from sim.scenario import ScenarioError
-    from tools.detector.arch import ArchitectureError
-    from tools.detector.train import ResumeError
-    from tools.regress import BaselineError
-    from tools.rundir import OutputError
-    from tools.store import StoreError
+    from lookahead.perception.detectors.onnx_detector import ModelError
+    from lookahead.sim.scenario import ScenarioError
+    from lookahead.tools.detector.arch import ArchitectureError
+    from lookahead.tools.detector.train import ResumeError
+    from lookahead.tools.regress import BaselineError
+    from lookahead.tools.rundir import OutputError
+    from lookahead.tools.store import StoreError
 
     return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
             FileNotFoundError, PermissionError, NotADirectoryError, IsADirectoryError)
@@ -76,7 +78,7 @@ WINDOWS_HELP = ("zoom windows, YAML list of [x0, y0, x1, y1] fractions of the im
 
 def windows_option(text: str | None) -> tuple[tuple[float, ...], ...]:
     """The ``--windows`` option's zoom windows (None: the default ones); a bad one is one line, exit 2."""
-    from perception.detectors.windows import DEFAULT_WINDOWS, check_windows
+    from lookahead.perception.detectors.windows import DEFAULT_WINDOWS, check_windows
 
     if text is None:
         return DEFAULT_WINDOWS
@@ -89,7 +91,7 @@ def windows_option(text: str | None) -> tuple[tuple[float, ...], ...]:
 
 def save_bench(result: dict, out: Path) -> None:
     """Write a benchmark's JSON to ``out`` and print its table and ratios."""
-    from tools.bench import print_bench
+    from lookahead.tools.bench import print_bench
 
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
@@ -128,24 +130,24 @@ def run_scenario(
     The runner (renderer, detector model) is built before any sink, so a bad model
     or renderer fails before an output file is touched.
     """
-    from sim.runner import Runner
-    from sim.scenario import load_scenario, with_detector
-    from tools.rundir import RunDirWriter
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import load_scenario, with_detector
+    from lookahead.tools.rundir import RunDirWriter
 
     scenario = with_detector(load_scenario(scenario_path), detector, model)
     runner = Runner(scenario, render=render, renderer_backend=renderer)
     try:
         sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
         if db is not None:  # opened (and checked) before anything runs
-            from tools.store import SqliteStore
+            from lookahead.tools.store import SqliteStore
 
             sinks.append(SqliteStore(db, scenario, run_dir=out, source=str(scenario_path)))
         if video is not None:
-            from tools.video import VideoSink
+            from lookahead.tools.video import VideoSink
 
             sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
         if rerun_file is not None or rerun_live:
-            from tools.rerun_sink import RerunSink
+            from lookahead.tools.rerun_sink import RerunSink
 
             sinks.append(RerunSink(rerun_file, spawn=rerun_live))
     except BaseException:
@@ -161,7 +163,7 @@ def run_scenario(
 @app.command()
 @user_errors
 def run(
-    scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
+    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=resolve_path)],
     out: Annotated[Path, typer.Option("--out", help="run directory to write")],
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = True,
     renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
@@ -191,7 +193,7 @@ def run(
 @app.command()
 @user_errors
 def suite(
-    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML")],
+    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML, or a packaged suite's name (smoke)", parser=resolve_path)],
     out: Annotated[Path, typer.Option("--out", help="suite directory to write")],
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
@@ -200,7 +202,7 @@ def suite(
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
 ) -> None:
     """Run and score every scenario of a suite; writes summary.json."""
-    from tools.suite import load_suite, run_suite
+    from lookahead.tools.suite import load_suite, run_suite
 
     _, paths = load_suite(suite_file)
     with _progress() as prog:
@@ -214,7 +216,7 @@ def suite(
 @app.command()
 @user_errors
 def regress(
-    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML")],
+    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML, or a packaged suite's name (smoke)", parser=resolve_path)],
     baseline: Annotated[Path, typer.Option("--baseline", help="baseline JSON")],
     update_baseline: Annotated[bool, typer.Option("--update-baseline", help="write the current totals as the baseline")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="keep the suite directory here")] = None,
@@ -226,8 +228,8 @@ def regress(
     """Run a suite and compare its totals with a baseline; exit 1 on a regression."""
     import tempfile
 
-    from tools.regress import compare, flatten, load_baseline, markdown, write_baseline
-    from tools.suite import run_suite
+    from lookahead.tools.regress import compare, flatten, load_baseline, markdown, write_baseline
+    from lookahead.tools.suite import run_suite
 
     base = None if update_baseline else load_baseline(baseline)  # fail before running anything
     with tempfile.TemporaryDirectory(prefix="lookahead-regress-") as tmp:
@@ -275,17 +277,17 @@ def print_suite(summary: dict) -> None:
 @app.command()
 @user_errors
 def render(
-    scenario: Annotated[Path, typer.Argument(help="scenario YAML")],
+    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=resolve_path)],
     out: Annotated[Path, typer.Option("--out", help="directory for PNG frames")],
     every: Annotated[int, typer.Option(help="keep every k-th camera frame")] = 1,
     amodal: Annotated[bool, typer.Option(help="draw amodal (projected 3D) boxes instead of visible ones")] = False,
     renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
 ) -> None:
     """Write PNG camera frames with ground-truth boxes, ids and classes drawn."""
-    from sim.runner import Runner
-    from sim.scenario import load_scenario
-    from tools.draw import draw_ground_truth, save_rgb
-    from tools.rundir import prepare_dir
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import load_scenario
+    from lookahead.tools.draw import draw_ground_truth, save_rgb
+    from lookahead.tools.rundir import prepare_dir
 
     sc = load_scenario(scenario)
     prepare_dir(out)
@@ -311,7 +313,7 @@ def render(
 @user_errors
 def schema(out: Annotated[Path | None, typer.Option(help="write here instead of stdout")] = None) -> None:
     """Print (or write) the JSON Schema of scenario files."""
-    from sim.scenario import scenario_json_schema
+    from lookahead.sim.scenario import scenario_json_schema
 
     text = json.dumps(scenario_json_schema(), indent=2) + "\n"
     if out is None:
@@ -322,11 +324,11 @@ def schema(out: Annotated[Path | None, typer.Option(help="write here instead of 
 
 @app.command()
 @user_errors
-def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML files")]) -> None:
+def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML files (or packaged names)", parser=resolve_path)]) -> None:
     """Validate scenario files; one line per file."""
     from rich.markup import escape
 
-    from sim.scenario import ScenarioError, load_scenario
+    from lookahead.sim.scenario import ScenarioError, load_scenario
 
     bad = 0
     for p in scenarios:
@@ -343,7 +345,7 @@ def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML
 @app.command()
 @user_errors
 def sweep(
-    sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP", help="sweep YAML (scenarios/sweeps/)")],
+    sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP", help="sweep YAML, or a packaged sweep's name (aeb_stationary_car)", parser=resolve_path)],
     out: Annotated[Path, typer.Option("--out", help="sweep directory to write (re-run to resume)")],
     workers: Annotated[int, typer.Option(min=1, help="worker processes (with --ray local: CPUs)")] = 1,
     ray_address: Annotated[str | None, typer.Option(
@@ -359,7 +361,7 @@ def sweep(
     Finished variants are skipped on a re-run; a failing variant is recorded in
     summary.json and the others go on (exit 1 at the end if any failed).
     """
-    from tools.sweep import is_complete, load_sweep, run_sweep
+    from lookahead.tools.sweep import is_complete, load_sweep, run_sweep
 
     _, _, variants = load_sweep(sweep_file)
     todo = [v for v in variants if not is_complete(out.resolve() / "runs" / v.id, v.scenario)]
@@ -388,12 +390,12 @@ def sweep(
 @user_errors
 def bench_sim(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario with traffic")] = Path("scenarios/highway_traffic.yaml"),
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=resolve_path)] = SCENARIOS / "highway_traffic.yaml",
     ticks: Annotated[int, typer.Option(help="ticks per case")] = 400,
     frames: Annotated[int, typer.Option(help="rendered frames per resolution")] = 30,
 ) -> None:
     """ms per tick: bare highway-env, our world, and rendering at 640x360 and 960x540."""
-    from tools.bench import bench_sim as run_bench
+    from lookahead.tools.bench import bench_sim as run_bench
 
     result = run_bench(scenario, ticks=ticks, frames=frames)
     save_bench(result, out)
@@ -402,7 +404,7 @@ def bench_sim(
 @app.command()
 def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> None:
     """Score a run directory into its metrics.json (detection, tracking, estimation)."""
-    from tools.score import score_command
+    from lookahead.tools.score import score_command
 
     raise typer.Exit(score_command(run_dir))
 
@@ -422,7 +424,7 @@ def replay(
     seed: Annotated[int, typer.Option(min=0, help="perturb: random stream")] = 0,
 ) -> None:
     """Re-run tracker, estimator, intent and alerts on a run's recorded detections; write and score a new run."""
-    from tools.replay import Perturbation, replay_command
+    from lookahead.tools.replay import Perturbation, replay_command
 
     perturb = Perturbation(jitter=jitter, bottom_sigma=bottom_noise, correlation=correlation, scale_bias=scale_bias,
                            miss_rate=miss_rate, class_flip=class_flip, seed=seed)
@@ -444,7 +446,7 @@ def query(
     fmt: Annotated[str, typer.Option("--format", help="table | csv | json")] = "table",
 ) -> None:
     """Reports from a run database: alert events, tracks, GT objects, per-run summary."""
-    from tools.query import query_command
+    from lookahead.tools.query import query_command
 
     raise typer.Exit(query_command(db, what, run, fmt))
 
@@ -454,15 +456,15 @@ def report(
     path: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR|SWEEP_DIR", help="run, suite or sweep directory")],
 ) -> None:
     """Write a self-contained report.html (metrics, plots, key frames) for a run, a suite or a sweep."""
-    from tools.report import report_command
+    from lookahead.tools.report import report_command
 
     raise typer.Exit(report_command(path))
 
 
 @app.command("export-dataset")
 def export_dataset(
-    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE|GENERATOR",
-                                           help="scenario, suite or scene-generator YAML")],
+    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE|GENERATOR", parser=resolve_path,
+                                           help="scenario, suite or scene-generator YAML (or a packaged name)")],
     out: Annotated[Path, typer.Option("--out", help="dataset directory to write")],
     format: Annotated[str, typer.Option("--format", help="yolo | coco | mot | study")] = "yolo",
     every: Annotated[int, typer.Option("--every", min=1, help="export every k-th camera frame")] = 1,
@@ -482,7 +484,7 @@ def export_dataset(
     A generator file (``generator:`` section, see scenarios/generators/) exports one
     dataset per split (disjoint seed ranges) into OUT/<split>.
     """
-    from tools.export import export_command
+    from lookahead.tools.export import export_command
 
     raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds,
                                     camera=camera_option(camera)))
@@ -522,9 +524,9 @@ def train_detector(
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
     _require_torch("train-detector")
-    from tools.detector.train import TrainConfig, train
+    from lookahead.tools.detector.train import TrainConfig, train
 
-    logging.getLogger("tools.detector").setLevel(logging.INFO)  # one line per epoch
+    logging.getLogger("lookahead.tools.detector").setLevel(logging.INFO)  # one line per epoch
     if init is not None and not init.is_file():
         raise FileNotFoundError(f"{init}: no such checkpoint")
     if crop[0] % 32 or crop[1] % 32:
@@ -557,7 +559,7 @@ def soup_detector(
 ) -> None:
     """Average the weights of detector checkpoints (a model soup) and export the ONNX model."""
     _require_torch("soup-detector")
-    from tools.detector.soup import soup, soup_weights
+    from lookahead.tools.detector.soup import soup, soup_weights
 
     try:
         given = None if weights is None else [float(v) for v in weights.split(",")]
@@ -588,13 +590,13 @@ def eval_detector(
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
     """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
-    from tools.detector.evaluate import evaluate_model
+    from lookahead.tools.detector.evaluate import evaluate_model
 
     zoom = windows_option(windows)
 
     chain = None
     if preprocess is not None:
-        from perception.preprocess import PreprocessChain
+        from lookahead.perception.preprocess import PreprocessChain
 
         try:
             chain = PreprocessChain(yaml_option("--preprocess", preprocess))
@@ -639,7 +641,7 @@ def track(
     frame_rate: Annotated[float | None, typer.Option(help="frames per second; default: frameRate of the sequence's seqinfo.ini, else 30")] = None,
 ) -> None:
     """Run the tracker over a MOTChallenge detection file."""
-    from tools.mot_cli import track_command
+    from lookahead.tools.mot_cli import track_command
 
     raise typer.Exit(track_command(det, out, frame_rate))
 
@@ -651,7 +653,7 @@ def eval_mot(
     format: Annotated[str, typer.Option("--format", help="table | json")] = "table",
 ) -> None:
     """MOTA, MOTP, IDF1, HOTA, ID switches, FP, FN, MT/ML of a tracks file (TrackEval)."""
-    from tools.mot_cli import eval_mot_command
+    from lookahead.tools.mot_cli import eval_mot_command
 
     raise typer.Exit(eval_mot_command(gt, tracks, format))
 
@@ -663,7 +665,7 @@ def bench_all(
     repeats: Annotated[int, typer.Option(help="repeats for the track and sinks benchmarks")] = 3,
 ) -> None:
     """Every benchmark (sim, track, sinks, env, sweep, the full loop) in one process; one JSON with all ratios."""
-    from tools.bench_all import bench_all as run_bench
+    from lookahead.tools.bench_all import bench_all as run_bench
 
     result = run_bench(repeats=repeats)
     save_bench(result, out)
@@ -675,7 +677,7 @@ def bench_all(
 def bench_detect(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     model: Annotated[Path | None, typer.Option(help="ONNX model (default: the shipped one)")] = None,
-    scenario: Annotated[Path, typer.Option(help="scenario whose frames are detected")] = Path("scenarios/urban_mix.yaml"),
+    scenario: Annotated[Path, typer.Option(help="scenario whose frames are detected", parser=resolve_path)] = SCENARIOS / "urban_mix.yaml",
     frames: Annotated[int, typer.Option(min=1, help="rendered frames")] = 30,
     repeats: Annotated[int, typer.Option(min=1, help="passes over the frames")] = 3,
     camera: Annotated[str | None, typer.Option(
@@ -684,8 +686,8 @@ def bench_detect(
     windows: Annotated[str | None, typer.Option(help=WINDOWS_HELP)] = None,
 ) -> None:
     """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360 by default."""
-    from sim.runner import DEFAULT_MODEL
-    from tools.bench_detect import bench_detect as run_bench
+    from lookahead.sim.runner import DEFAULT_MODEL
+    from lookahead.tools.bench_detect import bench_detect as run_bench
 
     result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows),
                        camera_option(camera))
@@ -699,11 +701,11 @@ def bench_detect(
 @user_errors
 def bench_sinks(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario to run")] = Path("scenarios/ped_crossing_nearside.yaml"),
+    scenario: Annotated[Path, typer.Option(help="scenario to run", parser=resolve_path)] = SCENARIOS / "ped_crossing_nearside.yaml",
     repeats: Annotated[int, typer.Option(help="runs per configuration")] = 3,
 ) -> None:
     """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
-    from tools.bench_sinks import bench_sinks as run_bench
+    from lookahead.tools.bench_sinks import bench_sinks as run_bench
 
     result = run_bench(scenario, repeats=repeats)
     save_bench(result, out)
@@ -716,8 +718,8 @@ def bench_track(
     repeats: Annotated[int, typer.Option(help="timed passes over every sequence")] = 3,
 ) -> None:
     """fps and MOTA/IDF1: our tracker vs deep-sort-realtime (no embedder) on MOT15 and simulated detections."""
-    from tools.bench_track import bench_track as run_bench
-    from tools.bench_track import print_track_bench
+    from lookahead.tools.bench_track import bench_track as run_bench
+    from lookahead.tools.bench_track import print_track_bench
 
     result = run_bench(out, repeats=repeats)
     print_track_bench(result, console)
@@ -727,11 +729,11 @@ def bench_track(
 @user_errors
 def bench_env(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario with traffic")] = Path("scenarios/highway_traffic.yaml"),
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=resolve_path)] = SCENARIOS / "highway_traffic.yaml",
     steps: Annotated[int, typer.Option(help="timed env steps")] = 600,
 ) -> None:
     """ForwardTracks-v0 steps vs bare highway-env with the same traffic; real-time factor."""
-    from tools.bench_env import bench_env as run_bench
+    from lookahead.tools.bench_env import bench_env as run_bench
 
     result = run_bench(scenario, steps=steps)
     save_bench(result, out)
@@ -741,13 +743,13 @@ def bench_env(
 @user_errors
 def bench_sweep(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)")] = Path(
-        "scenarios/sweeps/aeb_stationary_car.yaml"),
+    sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)", parser=resolve_path)] = (
+        SCENARIOS / "sweeps" / "aeb_stationary_car.yaml"),
     variants: Annotated[int | None, typer.Option(help="use only the first N variants")] = None,
     repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
 ) -> None:
     """Wall time of one sweep on 1 worker and on 2 workers (warm pools, rendering off)."""
-    from tools.bench_sweep import bench_sweep as run_bench
+    from lookahead.tools.bench_sweep import bench_sweep as run_bench
 
     result = run_bench(sweep_file, variants=variants, repeats=repeats)
     save_bench(result, out)
@@ -757,7 +759,7 @@ def bench_sweep(
 @user_errors
 def demo(out: Annotated[Path, typer.Option("--out")] = Path("out/demo")) -> None:
     """The main job: run the smoke suite and render a few annotated frames."""
-    from tools.demo import run_demo
+    from lookahead.tools.demo import run_demo
 
     run_demo(out, console)
 

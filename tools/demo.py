@@ -6,11 +6,11 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from tools.draw import save_rgb
-from tools.rundir import prepare_dir
-from tools.suite import load_suite
+from lookahead.sim.catalogue import SCENARIOS
+from lookahead.tools.draw import save_rgb
+from lookahead.tools.rundir import prepare_dir
+from lookahead.tools.suite import load_suite
 
-ROOT = Path(__file__).resolve().parents[1]
 KEY_FRAMES = (0.25, 0.5, 0.75)  # fractions of each run at which a PNG is kept
 KEY_ALERTS = ("fcw", "critical")  # the first alert event of each of these kinds is a key frame too
 KEY_FRAMES_INDEX = "key_frames.json"
@@ -39,7 +39,7 @@ class KeyFrameSink:
     (``tools.video.Overlay``: tracks coloured by risk, labels, range, TTC, trails, alert banner)."""
 
     def __init__(self, out: Path, frames_total: int, lang: str = "en") -> None:
-        from tools.video import Overlay
+        from lookahead.tools.video import Overlay
 
         self.out, self.frames_total = prepare_dir(out), frames_total
         self.overlay = Overlay(lang)
@@ -74,10 +74,10 @@ def run_demo(out: Path, console) -> dict:
     """The smoke suite rendered on two workers: run directories with key frames, one
     SQLite store, an annotated video and a rerun recording of the first scenario,
     and the HTML report of the whole suite."""
-    from tools.report import build_report
-    from tools.suite import run_suite
+    from lookahead.tools.report import build_report
+    from lookahead.tools.suite import run_suite
 
-    suite = ROOT / "scenarios" / "suites" / "smoke.yaml"
+    suite = SCENARIOS / "suites" / "smoke.yaml"
     _, paths = load_suite(suite)
     outputs = {p.stem: ("keyframes",) for p in paths}
     outputs[paths[0].stem] = ("keyframes", "video", "rerun")
@@ -86,7 +86,7 @@ def run_demo(out: Path, console) -> dict:
         db.unlink()
     summary = run_suite(suite, out, workers=2, render=True, db=db, outputs=outputs)
     report = build_report(out)
-    from tools.cli import print_suite
+    from lookahead.tools.cli import print_suite
 
     print_suite(summary)
     first = out / paths[0].stem

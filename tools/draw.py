@@ -5,7 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from perception.detections import CLASSES
+from lookahead.perception.detections import CLASSES
 
 #: One colour per class (RGB).
 CLASS_COLOURS = {

@@ -59,15 +59,15 @@ import cv2
 import numpy as np
 import yaml
 
-from perception.detections import CLASSES
-from perception.tracker import TrackState
-from sim.records import Sink, TickRecord
-from sim.scenario import Scenario, ScenarioError, load_scenario
-from tools.rundir import OutputError, prepare_dir
-from tools.scoring.matching import class_iou, hungarian_match
+from lookahead.perception.detections import CLASSES
+from lookahead.perception.tracker import TrackState
+from lookahead.sim.records import Sink, TickRecord
+from lookahead.sim.scenario import Scenario, ScenarioError, load_scenario
+from lookahead.tools.rundir import OutputError, prepare_dir
+from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
 if TYPE_CHECKING:
-    from tools.scene_gen import GeneratorSpec
+    from lookahead.tools.scene_gen import GeneratorSpec
 
 log = logging.getLogger(__name__)
 
@@ -364,7 +364,7 @@ def _export_chunk(spec: GeneratorSpec, seeds: list[int], weather: str | None, fm
     Returns (sequence summaries, COCO images, COCO annotations) -- the COCO lists
     (empty for other formats) are merged and renumbered by the caller.
     """
-    from tools.scene_gen import generate_scenario
+    from lookahead.tools.scene_gen import generate_scenario
 
     scenarios = [generate_scenario(spec, s, weather) for s in seeds]
     writer = make_writer(fmt, Path(out), every)
@@ -376,7 +376,7 @@ def _export_chunk(spec: GeneratorSpec, seeds: list[int], weather: str | None, fm
 
 def _run_export(scenarios: Sequence[Scenario], writer: Writer, every: int, render: bool,
                 extra_sinks: Sequence[Sink] = ()) -> list[dict]:
-    from sim.runner import Runner
+    from lookahead.sim.runner import Runner
 
     seqs = []
     for sc in scenarios:
@@ -408,7 +408,7 @@ def export_generated(
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
-    from tools.scene_gen import generate_scenario, load_generator, split_seeds
+    from lookahead.tools.scene_gen import generate_scenario, load_generator, split_seeds
 
     if every < 1:
         raise ValueError(f"--every: expected an integer >= 1, got {every}")
@@ -470,7 +470,7 @@ def with_split_seeds(spec: GeneratorSpec, splits: Sequence[str], seeds: tuple[in
     """``spec`` with the seed range of the single split in ``splits`` set to ``seeds``
     [first, last); ValueError (naming the file) when that is not one split, or the range is
     empty or overlaps another split's."""
-    from tools.scene_gen import SplitSpec, overlapping_split, split_seeds
+    from lookahead.tools.scene_gen import SplitSpec, overlapping_split, split_seeds
 
     if len(splits) != 1:
         raise ValueError(f"--seeds: replaces the range of one split, give exactly one --split (got {len(splits)})")
@@ -492,7 +492,7 @@ def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
     camera draw (field of view, mount) unchanged; ValueError when out of range."""
     from pydantic import ValidationError
 
-    from tools.scene_gen import CameraRandom
+    from lookahead.tools.scene_gen import CameraRandom
 
     w, h = size
     try:
@@ -505,7 +505,7 @@ def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
 
 def load_sources(source: Path) -> list[Scenario]:
     """The scenarios of a scenario YAML or of a suite YAML (a mapping with ``scenarios``)."""
-    from tools.suite import is_suite, load_suite, read_yaml
+    from lookahead.tools.suite import is_suite, load_suite, read_yaml
 
     if is_suite(read_yaml(source, "scenario or suite")):
         _, paths = load_suite(source)
@@ -530,8 +530,8 @@ def export_command(
     ``source`` may be a scenario, a suite or a generator file (``tools.scene_gen``);
     ``splits``, ``weather``, ``workers``, ``seeds`` and ``camera`` apply to generator files only.
     """
-    from tools.scene_gen import is_generator
-    from tools.suite import read_yaml
+    from lookahead.tools.scene_gen import is_generator
+    from lookahead.tools.suite import read_yaml
 
     try:
         if fmt not in FORMATS:

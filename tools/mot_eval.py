@@ -24,9 +24,16 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from trackeval.metrics import CLEAR, HOTA, Identity
 
-from perception.geometry import grow_boxes, iou_matrix
-from perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections, write_mot
-from perception.tracker import Tracker, TrackerConfig
+from lookahead.perception.geometry import grow_boxes, iou_matrix
+from lookahead.perception.mot import (
+    MotRecords,
+    from_boxes,
+    iter_frames,
+    read_mot,
+    to_detections,
+    write_mot,
+)
+from lookahead.perception.tracker import Tracker, TrackerConfig
 
 log = logging.getLogger(__name__)
 

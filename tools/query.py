@@ -22,9 +22,9 @@ import sqlite3
 import sys
 from pathlib import Path
 
-from intent.labels import Risk
-from sim.records import jsonable
-from tools.store import StoreError, open_db
+from lookahead.intent.labels import Risk
+from lookahead.sim.records import jsonable
+from lookahead.tools.store import StoreError, open_db
 
 WHATS = ("alerts", "tracks", "objects", "summary")
 FORMATS = ("table", "csv", "json")

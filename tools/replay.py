@@ -54,13 +54,13 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from intent.config import IntentConfig
-from perception.detections import CLASSES, Detections
-from perception.detectors.base import DetectorTruth
-from perception.frame import EgoOdometry, Frame
-from sim.records import jsonable
-from sim.scenario import Scenario
-from tools.rundir import OutputError, prepare_dir
+from lookahead.intent.config import IntentConfig
+from lookahead.perception.detections import CLASSES, Detections
+from lookahead.perception.detectors.base import DetectorTruth
+from lookahead.perception.frame import EgoOdometry, Frame
+from lookahead.sim.records import jsonable
+from lookahead.sim.scenario import Scenario
+from lookahead.tools.rundir import OutputError, prepare_dir
 
 log = logging.getLogger(__name__)
 
@@ -88,7 +88,7 @@ class Perturber:
     """Applies a ``Perturbation`` frame by frame (state: the AR(1) noise per source object)."""
 
     def __init__(self, config: Perturbation, run_seed: int, width: int, height: int) -> None:
-        from perception.detectors.gt_detector import _CONF_COUNT, _CONF_TABLE
+        from lookahead.perception.detectors.gt_detector import _CONF_COUNT, _CONF_TABLE
 
         self.config, self.width, self.height = config, width, height
         self.rng = np.random.default_rng([config.seed, run_seed, 0x5EA1])
@@ -185,8 +185,8 @@ def replay_run(
     "alerts": {...}}`` merged over the scenario's settings (experiments; the
     replay's ``run.json`` carries the resulting scenario).
     """
-    from sim.aeb import Aeb
-    from sim.runner import PerceptionStack, camera_from_scenario
+    from lookahead.sim.aeb import Aeb
+    from lookahead.sim.runner import PerceptionStack, camera_from_scenario
 
     run_dir, out_dir = Path(run_dir), Path(out_dir)
     ticks_in = run_dir / "ticks.jsonl"
@@ -199,8 +199,8 @@ def replay_run(
     perturb = perturb or Perturbation()
     camera = camera_from_scenario(scenario)
     p = scenario.perception
-    from perception.estimator import EstimatorConfig
-    from perception.tracker import TrackerConfig
+    from lookahead.perception.estimator import EstimatorConfig
+    from lookahead.perception.tracker import TrackerConfig
 
     intent_config = IntentConfig().with_overrides(scenario.intent)
     detector = RecordedDetector()
@@ -266,7 +266,7 @@ def replay_run(
     (out_dir / "metrics.json").unlink(missing_ok=True)
     result = {"name": scenario.name, "dir": str(out_dir), "summary": run.get("summary") or {}, "replay": replay}
     if score:
-        from tools.score import score_run
+        from lookahead.tools.score import score_run
 
         result["metrics"] = score_run(out_dir)
     return result
@@ -279,7 +279,7 @@ def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
                          "expected tracker, estimator, intent, alerts")
     if not overrides:
         return scenario
-    from intent.config import _deep_merge
+    from lookahead.intent.config import _deep_merge
 
     data = scenario.model_dump(mode="json")
     for key in ("tracker", "estimator"):
@@ -301,8 +301,8 @@ def replay_suite(
     progress=None,
 ) -> dict:
     """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like ``lookahead suite``."""
-    from tools.score import score_suite
-    from tools.scoring.intent import intent_totals
+    from lookahead.tools.score import score_suite
+    from lookahead.tools.scoring.intent import intent_totals
 
     suite_dir, out = Path(suite_dir), Path(out)
     src = json.loads((suite_dir / "summary.json").read_text(encoding="utf-8"))
@@ -333,7 +333,7 @@ def replay_command(source: Path, out: Path, perturb: Perturbation, config: Path 
     """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides."""
     overrides = None
     if config is not None:
-        from tools.suite import read_yaml
+        from lookahead.tools.suite import read_yaml
 
         overrides = read_yaml(config, "replay config")
         if not isinstance(overrides, dict):

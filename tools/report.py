@@ -108,8 +108,8 @@ def confusion_figure(confusion: dict) -> str | None:
 
 def range_error_figure(run_dir: Path) -> str | None:
     """Scatter of estimated − true range vs true range over matched (track, GT) pairs."""
-    from tools.scoring import estimation as est
-    from tools.scoring.io import load_run
+    from lookahead.tools.scoring import estimation as est
+    from lookahead.tools.scoring.io import load_run
 
     run = load_run(run_dir)
     if run.tracks is None:
@@ -160,7 +160,7 @@ class _Timeline:
 
 def _read_ticks(run_dir: Path) -> list[dict]:
     """The records of ``ticks.jsonl``; ``RunDirError`` naming file and line when malformed."""
-    from tools.scoring.io import RunDirError
+    from lookahead.tools.scoring.io import RunDirError
 
     path = run_dir / "ticks.jsonl"
     out = []
@@ -174,9 +174,9 @@ def _read_ticks(run_dir: Path) -> list[dict]:
 
 
 def _timeline(run_dir: Path, records: list[dict]) -> _Timeline:
-    from intent.labels import Label
-    from tools.scoring.io import load_run
-    from tools.scoring.matching import class_iou, hungarian_match
+    from lookahead.intent.labels import Label
+    from lookahead.tools.scoring.io import load_run
+    from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
     run = load_run(run_dir)
     tl = _Timeline()
@@ -413,7 +413,7 @@ def _figure(alt: str, mime: str, data: bytes, caption: str) -> str:
 
 def _saved_key_frames(run_dir: Path, records: list[dict]) -> list[str]:
     """Figures of the PNGs in ``frames/`` (captions: file, t, and why from ``key_frames.json``)."""
-    from tools.demo import KEY_FRAMES_INDEX
+    from lookahead.tools.demo import KEY_FRAMES_INDEX
 
     paths = sorted((run_dir / "frames").glob("*.png"))[:MAX_KEY_FRAMES]
     if not paths:
@@ -439,7 +439,7 @@ def video_key_frames(run_dir: Path, records: list[dict]) -> list[tuple[int, str,
     with OpenCV; [] when there is no video or it cannot be read (logged)."""
     import cv2
 
-    from tools.demo import key_frame_reason
+    from lookahead.tools.demo import key_frame_reason
 
     path = run_dir / VIDEO_FILE
     if not path.is_file():
@@ -502,8 +502,8 @@ def _page(title: str, body: str) -> str:
 
 
 def _ensure_metrics(run_dir: Path) -> dict:
-    from tools.score import score_run
-    from tools.scoring.io import read_metrics
+    from lookahead.tools.score import score_run
+    from lookahead.tools.scoring.io import read_metrics
 
     if not (run_dir / "metrics.json").is_file():
         log.info("%s: no metrics.json, scoring first", run_dir)
@@ -638,7 +638,7 @@ def build_report(path: Path) -> Path:
     if (path / "ticks.jsonl").is_file():
         return build_run_report(path)
     if (path / SUMMARY_FILE).is_file():
-        from tools.sweep_report import build_sweep_report, is_sweep_dir
+        from lookahead.tools.sweep_report import build_sweep_report, is_sweep_dir
 
         return build_sweep_report(path) if is_sweep_dir(path) else build_suite_report(path)
     raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")
@@ -646,7 +646,7 @@ def build_report(path: Path) -> Path:
 
 def report_command(path: Path) -> int:
     """CLI body of ``lookahead report RUN_DIR|SUITE_DIR``: 0, or 2 with one ``error:`` line."""
-    from tools.scoring.io import RunDirError
+    from lookahead.tools.scoring.io import RunDirError
 
     try:
         out = build_report(Path(path))

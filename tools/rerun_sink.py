@@ -32,12 +32,12 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from intent.labels import LABEL_NAMES, RISK_COLOURS, Label, Risk
-from perception.camera import CameraModel
-from perception.detections import CLASSES
-from sim.records import TickRecord
-from tools.draw import CLASS_COLOURS
-from tools.rundir import OutputError
+from lookahead.intent.labels import LABEL_NAMES, RISK_COLOURS, Label, Risk
+from lookahead.perception.camera import CameraModel
+from lookahead.perception.detections import CLASSES
+from lookahead.sim.records import TickRecord
+from lookahead.tools.draw import CLASS_COLOURS
+from lookahead.tools.rundir import OutputError
 
 log = logging.getLogger(__name__)
 

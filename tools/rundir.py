@@ -14,8 +14,8 @@ import platform
 from importlib import metadata
 from pathlib import Path
 
-from sim.records import TickRecord, jsonable
-from sim.scenario import Scenario
+from lookahead.sim.records import TickRecord, jsonable
+from lookahead.sim.scenario import Scenario
 
 
 class OutputError(RuntimeError):

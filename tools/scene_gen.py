@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from sim.scenario import SUBTYPES, Scenario, ScenarioError
+from lookahead.sim.scenario import SUBTYPES, Scenario, ScenarioError
 
 Range = tuple[float, float]
 
@@ -131,7 +131,7 @@ _MOTION = {
 
 def load_generator(path: str | Path) -> GeneratorSpec:
     """Read and validate a generator file; one-line ``ScenarioError`` naming file and field."""
-    from tools.suite import read_yaml
+    from lookahead.tools.suite import read_yaml
 
     data = read_yaml(path, "generator")
     if not isinstance(data, dict) or not isinstance(data.get("generator"), dict):

@@ -27,9 +27,9 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from tools.scoring.detection import evaluate_detection
-from tools.scoring.estimation import evaluate_estimation
-from tools.scoring.io import (
+from lookahead.tools.scoring.detection import evaluate_detection
+from lookahead.tools.scoring.estimation import evaluate_estimation
+from lookahead.tools.scoring.io import (
     RunData,
     RunDirError,
     concat_runs,
@@ -38,8 +38,8 @@ from tools.scoring.io import (
     read_metrics,
     write_metrics,
 )
-from tools.scoring.timing import load_timings, timing_section
-from tools.scoring.tracking import evaluate_tracking
+from lookahead.tools.scoring.timing import load_timings, timing_section
+from lookahead.tools.scoring.tracking import evaluate_tracking
 
 log = logging.getLogger(__name__)
 
@@ -80,7 +80,7 @@ def evaluate(run: RunData) -> dict[str, dict]:
 
 def compute_sections(run_dir: Path) -> dict[str, dict]:
     """The sections of a run directory (nothing written), with ``timing`` when recorded."""
-    from tools.scoring.intent import intent_sections, load_intent_run
+    from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 
     sections = evaluate(load_run(run_dir))
     sections.update(intent_sections(load_intent_run(run_dir)))

@@ -15,7 +15,7 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 from scipy.optimize import linear_sum_assignment
 
-from perception.geometry import iou_matrix
+from lookahead.perception.geometry import iou_matrix
 
 
 def bbox_to_z(bbox: np.ndarray) -> np.ndarray:

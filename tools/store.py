@@ -42,11 +42,11 @@ from urllib.parse import quote
 
 import numpy as np
 
-from intent.alerts import reason_text
-from intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES, Risk
-from perception.detections import CLASSES
-from sim.records import TickRecord, jsonable
-from sim.scenario import Scenario
+from lookahead.intent.alerts import reason_text
+from lookahead.intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES, Risk
+from lookahead.perception.detections import CLASSES
+from lookahead.sim.records import TickRecord, jsonable
+from lookahead.sim.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -292,7 +292,7 @@ class SqliteStore:
 
     # --- sink protocol -------------------------------------------------------------------
     def on_start(self, info: dict) -> None:
-        from tools.rundir import config_hash, versions
+        from lookahead.tools.rundir import config_hash, versions
 
         sc = self.scenario
         row = (

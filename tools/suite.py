@@ -7,7 +7,7 @@ from pathlib import Path
 
 import yaml
 
-from sim.scenario import ScenarioError
+from lookahead.sim.scenario import ScenarioError
 
 
 def read_yaml(path: str | Path, what: str = "suite") -> object:
@@ -48,28 +48,28 @@ def run_one(
     ``video`` (annotated.mp4), ``rerun`` (run.rrd). ``detector`` = (kind, model)
     overrides the scenario's detector (``sim.scenario.with_detector``).
     """
-    from sim.runner import Runner
-    from sim.scenario import load_scenario, with_detector
-    from tools.rundir import RunDirWriter
-    from tools.score import score_run
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import load_scenario, with_detector
+    from lookahead.tools.rundir import RunDirWriter
+    from lookahead.tools.score import score_run
 
     sc = with_detector(load_scenario(scenario_path), *detector)
     run_dir = Path(out_dir)
     sinks: list = [RunDirWriter(run_dir, sc, scenario_path)]
     if db is not None:
-        from tools.store import SqliteStore
+        from lookahead.tools.store import SqliteStore
 
         sinks.append(SqliteStore(Path(db), sc, run_dir=run_dir, source=scenario_path))
     if "keyframes" in outputs:
-        from tools.demo import KeyFrameSink
+        from lookahead.tools.demo import KeyFrameSink
 
         sinks.append(KeyFrameSink(run_dir / "frames", int(sc.duration * sc.camera.rate)))
     if "video" in outputs:
-        from tools.video import VideoSink
+        from lookahead.tools.video import VideoSink
 
         sinks.append(VideoSink(run_dir / "annotated.mp4", fps=sc.camera.rate))
     if "rerun" in outputs:
-        from tools.rerun_sink import RerunSink
+        from lookahead.tools.rerun_sink import RerunSink
 
         sinks.append(RerunSink(run_dir / "run.rrd"))
     try:
@@ -95,13 +95,13 @@ def run_suite(
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
 
-    from sim.scenario import load_scenario
-    from tools.rundir import prepare_dir
-    from tools.score import score_suite
+    from lookahead.sim.scenario import load_scenario
+    from lookahead.tools.rundir import prepare_dir
+    from lookahead.tools.score import score_suite
 
     name, paths = load_suite(suite_path)
-    from sim.runner import build_detector
-    from sim.scenario import with_detector
+    from lookahead.sim.runner import build_detector
+    from lookahead.sim.scenario import with_detector
 
     checked: set[str] = set()
     for p in paths:  # validate everything (and load each detector once) before running anything
@@ -112,7 +112,7 @@ def run_suite(
             checked.add(key)
     prepare_dir(out)
     if db is not None:  # fail before running anything; creates the schema once
-        from tools.store import open_db
+        from lookahead.tools.store import open_db
 
         open_db(db).close()
     outputs = outputs or {}
@@ -135,7 +135,7 @@ def run_suite(
                 if progress:
                     progress(r["name"])
     ordered = [results[load_scenario(p).name] for p in paths]
-    from tools.scoring.intent import intent_totals
+    from lookahead.tools.scoring.intent import intent_totals
 
     totals = score_suite([Path(r["dir"]) for r in ordered])
     totals.update(intent_totals([r["metrics"] for r in ordered]))
@@ -146,7 +146,7 @@ def run_suite(
         "runs": {r["name"]: {"dir": Path(r["dir"]).name, "summary": r["summary"], "metrics": r["metrics"]} for r in ordered},
         "totals": totals,
     }
-    from sim.records import jsonable
+    from lookahead.sim.records import jsonable
 
     (out / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
     return summary

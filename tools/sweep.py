@@ -65,7 +65,7 @@ from typing import Annotated, Any
 import yaml
 from pydantic import BaseModel, Discriminator, Field, Tag, ValidationError, model_validator
 
-from sim.scenario import (
+from lookahead.sim.scenario import (
     Scenario,
     ScenarioError,
     Strict,
@@ -315,7 +315,7 @@ def place_impact_offset(actor: dict, ego: dict, offset: float) -> None:
       ``ego_range_lt`` or ``t``. Kinematic approximation: the actor's footprint is ignored
       (error ~ its half-length, about 0.3 m for a pedestrian).
     """
-    from sim.actors import DEFAULT_ACCEL
+    from lookahead.sim.actors import DEFAULT_ACCEL
 
     aid = actor.get("id")
     heading = math.radians(float(actor.get("heading", 0.0)))
@@ -550,16 +550,16 @@ def one_line(exc: BaseException) -> str:
 
 def warm_worker() -> None:
     """Pool initializer: import the loop and the scorer before the first variant arrives."""
-    import sim.runner  # noqa: F401
-    import tools.score  # noqa: F401
-    import tools.scoring.intent  # noqa: F401
-    import tools.store  # noqa: F401
-    import tools.suite  # noqa: F401
+    import lookahead.sim.runner  # noqa: F401
+    import lookahead.tools.score  # noqa: F401
+    import lookahead.tools.scoring.intent  # noqa: F401
+    import lookahead.tools.store  # noqa: F401
+    import lookahead.tools.suite  # noqa: F401
 
 
 def run_variant(vid: str, scenario_path: str, run_dir: str, render: bool = False, db: str | None = None) -> dict:
     """Run and score one variant (a worker's job); never raises: failures come back as data."""
-    from tools.suite import run_one
+    from lookahead.tools.suite import run_one
 
     t0, c0 = time.perf_counter(), time.process_time()
     result: dict[str, Any] = {"id": vid, "ok": True}
@@ -579,7 +579,7 @@ def _failed(vid: str, exc: BaseException) -> dict:
 
 def is_complete(run_dir: Path, scenario: Scenario) -> bool:
     """``run.json`` complete for this very scenario (config hash) and ``metrics.json`` written."""
-    from tools.rundir import config_hash
+    from lookahead.tools.rundir import config_hash
 
     try:
         run = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
@@ -591,7 +591,7 @@ def is_complete(run_dir: Path, scenario: Scenario) -> bool:
 
 def forget_runs(db: Path, run_dirs: list[Path]) -> int:
     """Delete the store's rows of runs written into ``run_dirs`` (stale or killed runs)."""
-    from tools.store import open_db
+    from lookahead.tools.store import open_db
 
     if not run_dirs:
         return 0
@@ -715,8 +715,8 @@ def run_sweep(
     process when ``workers`` <= 1). ``progress(result)`` is called once per variant run.
     ``variants`` overrides the sweep file's (a subset, e.g. in benchmarks).
     """
-    from tools.rundir import prepare_dir
-    from tools.store import open_db
+    from lookahead.tools.rundir import prepare_dir
+    from lookahead.tools.store import open_db
 
     sweep_path = Path(sweep_path)
     spec, base_path, expanded = load_sweep(sweep_path)
@@ -760,11 +760,11 @@ def run_sweep(
     elapsed = time.perf_counter() - t0
     summary = gather(out, spec, sweep_path, base_path, variants, results, render=render, db=db)
     summary.update(backend=backend, workers=workers, elapsed_s=round(elapsed, 3))
-    from sim.records import jsonable
+    from lookahead.sim.records import jsonable
 
     (out / SUMMARY_FILE).write_text(json.dumps(jsonable(summary), indent=2) + "\n")
     if report:
-        from tools.sweep_report import build_sweep_report
+        from lookahead.tools.sweep_report import build_sweep_report
 
         build_sweep_report(out)
     return summary
@@ -786,7 +786,7 @@ def sweep_totals(per_variant: list[dict]) -> dict:
     hundreds of variants on a cluster must not do -- and ``mean_over_variants`` gives the
     plain mean of every ``KEY_METRICS`` number instead.
     """
-    from tools.scoring.intent import intent_totals
+    from lookahead.tools.scoring.intent import intent_totals
 
     def total(section: str, key: str) -> int:
         return int(sum((m.get(section) or {}).get(key) or 0 for m in per_variant))
@@ -814,7 +814,7 @@ def gather(
     results: dict[str, dict], render: bool, db: Path,
 ) -> dict:
     """``summary.json`` content from the run directories on disk (done now or earlier)."""
-    from tools.scoring.io import read_metrics
+    from lookahead.tools.scoring.io import read_metrics
 
     entries: dict[str, dict] = {}
     done: list[tuple[Path, dict]] = []

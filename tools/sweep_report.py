@@ -23,7 +23,17 @@ import re
 from pathlib import Path
 from typing import Any
 
-from tools.report import REPORT_FILE, SUMMARY_FILE, _e, _fmt, _img, _page, _plt, _png, _row
+from lookahead.tools.report import (
+    REPORT_FILE,
+    SUMMARY_FILE,
+    _e,
+    _fmt,
+    _img,
+    _page,
+    _plt,
+    _png,
+    _row,
+)
 
 log = logging.getLogger(__name__)
 

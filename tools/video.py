@@ -39,12 +39,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from intent.alerts import Alert
-from intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, Label, Risk, risk_colour
-from perception.detections import CLASSES
-from perception.tracker import TrackState
-from sim.records import TickRecord
-from tools.rundir import OutputError
+from lookahead.intent.alerts import Alert
+from lookahead.intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, Label, Risk, risk_colour
+from lookahead.perception.detections import CLASSES
+from lookahead.perception.tracker import TrackState
+from lookahead.sim.records import TickRecord
+from lookahead.tools.rundir import OutputError
 
 log = logging.getLogger(__name__)
 

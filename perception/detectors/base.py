@@ -7,7 +7,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from perception.detections import Detections
+from lookahead.perception.detections import Detections
 
 
 @dataclass

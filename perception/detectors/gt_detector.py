@@ -24,8 +24,8 @@ from collections import deque
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from perception.detections import CLASS_ID, CLASSES, Detections
-from perception.detectors.base import DetectorTruth
+from lookahead.perception.detections import CLASS_ID, CLASSES, Detections
+from lookahead.perception.detectors.base import DetectorTruth
 
 #: Classes a detector plausibly confuses each class with (picked uniformly).
 CONFUSABLE: dict[str, tuple[str, ...]] = {

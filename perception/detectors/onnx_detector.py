@@ -31,12 +31,17 @@ from typing import Any
 import numpy as np
 import yaml
 
-from perception.detections import CLASS_ID, Detections
-from perception.detectors.base import DetectorTruth
-from perception.detectors.windows import check_windows, merge_windows, window_pixels, window_zoom
-from perception.geometry import clip_boxes
-from perception.letterbox import letterbox, padded_size, unletterbox_boxes
-from perception.nms import nms
+from lookahead.perception.detections import CLASS_ID, Detections
+from lookahead.perception.detectors.base import DetectorTruth
+from lookahead.perception.detectors.windows import (
+    check_windows,
+    merge_windows,
+    window_pixels,
+    window_zoom,
+)
+from lookahead.perception.geometry import clip_boxes
+from lookahead.perception.letterbox import letterbox, padded_size, unletterbox_boxes
+from lookahead.perception.nms import nms
 
 log = logging.getLogger(__name__)
 

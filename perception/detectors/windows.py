@@ -32,8 +32,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from perception.detections import Detections
-from perception.nms import nms
+from lookahead.perception.detections import Detections
+from lookahead.perception.nms import nms
 
 #: The middle half of the frame's width, 53 % of its height, just below the middle (the
 #: horizon of a camera pitched 2 deg down): 160..480 x 80..272 px of a 640 x 360 frame.

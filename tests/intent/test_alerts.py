@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from intent.alerts import AlertConfig, AlertManager
-from intent.labels import Assessment, Behaviour, Label, Risk
+from lookahead.intent.alerts import AlertConfig, AlertManager
+from lookahead.intent.labels import Assessment, Behaviour, Label, Risk
 
 
 def frame(risks: list[int], labels: list[int] | None = None) -> Assessment:

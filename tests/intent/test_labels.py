@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from intent.config import IntentConfig
-from intent.labels import Behaviour, Kinematics, Label, Risk, assess, time_to_collision
-from perception.detections import CLASS_ID
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Behaviour, Kinematics, Label, Risk, assess, time_to_collision
+from lookahead.perception.detections import CLASS_ID
 
 CFG = IntentConfig()
 

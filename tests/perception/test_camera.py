@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from perception.camera import CameraModel, truncation
-from perception.geometry import box_corners, iou_matrix, mask_boxes
+from lookahead.perception.camera import CameraModel, truncation
+from lookahead.perception.geometry import box_corners, iou_matrix, mask_boxes
 
 CAM = CameraModel.from_fov(640, 360, 90.0, mount=(-1.5, 0.0, 1.4), pitch_deg=-2.0)
 

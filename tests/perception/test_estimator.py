@@ -18,12 +18,12 @@ import dataclasses
 import numpy as np
 import pytest
 
-from perception.camera import CameraModel
-from perception.detections import CLASS_ID, Detections
-from perception.estimator import Estimates, Estimator, EstimatorConfig
-from perception.frame import EgoOdometry
-from perception.geometry import box_corners, clip_boxes
-from perception.tracker import Tracks, TrackState
+from lookahead.perception.camera import CameraModel
+from lookahead.perception.detections import CLASS_ID, Detections
+from lookahead.perception.estimator import Estimates, Estimator, EstimatorConfig
+from lookahead.perception.frame import EgoOdometry
+from lookahead.perception.geometry import box_corners, clip_boxes
+from lookahead.perception.tracker import Tracks, TrackState
 
 CAM = CameraModel.from_fov(640, 360, 90.0, mount=(-1.5, 0.0, 1.4), pitch_deg=-2.0)
 # Narrow and tilted up: the image bottom row meets the road 4.57 m ahead, so close objects are cut.
@@ -547,7 +547,7 @@ def test_to_dict_and_kinematics_fields():
     assert all(len(v) == 1 for v in d.values())
     assert np.isnan(d["accel"][0])  # unknown this early, kept as NaN for the writer
     # The consumer's contract (perception itself never imports intent).
-    from intent.labels import Kinematics
+    from lookahead.intent.labels import Kinematics
 
     k = Kinematics(class_id=np.array([CAR]), age=np.array([3]), **e.kinematics_fields())
     assert k.range[0] == e.range[0]

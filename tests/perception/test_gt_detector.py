@@ -6,9 +6,9 @@ import numpy as np
 import pydantic
 import pytest
 
-from perception.detections import CLASS_ID, CLASSES
-from perception.detectors import Detector, DetectorTruth, GtNoiseConfig, GtNoiseDetector
-from perception.detectors.gt_detector import CONFUSABLE
+from lookahead.perception.detections import CLASS_ID, CLASSES
+from lookahead.perception.detectors import Detector, DetectorTruth, GtNoiseConfig, GtNoiseDetector
+from lookahead.perception.detectors.gt_detector import CONFUSABLE
 
 W, H = 640, 360
 

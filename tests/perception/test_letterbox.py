@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perception.letterbox import PAD_VALUE, letterbox, letterbox_boxes, unletterbox_boxes
+from lookahead.perception.letterbox import PAD_VALUE, letterbox, letterbox_boxes, unletterbox_boxes
 
 
 def test_wide_image_into_square() -> None:

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from perception.detections import Detections
-from perception.mot import (
+from lookahead.perception.detections import Detections
+from lookahead.perception.mot import (
     MotRecords,
     from_boxes,
     from_detections,

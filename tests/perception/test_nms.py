@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perception.geometry import iou_matrix
-from perception.nms import nms
+from lookahead.perception.geometry import iou_matrix
+from lookahead.perception.nms import nms
 
 
 def _reference(xyxy, score, cls, thr, max_det):
@@ -74,7 +74,7 @@ def test_a_part_inside_a_better_box_of_its_class_is_dropped_with_a_containment_t
 
 @pytest.mark.parametrize("seed", range(3))
 def test_the_matrix_and_the_row_at_a_time_passes_keep_the_same_boxes(seed: int, monkeypatch) -> None:
-    import perception.nms as nms_module
+    import lookahead.perception.nms as nms_module
 
     rng = np.random.default_rng(seed)
     n = 300
@@ -89,7 +89,7 @@ def test_the_matrix_and_the_row_at_a_time_passes_keep_the_same_boxes(seed: int, 
 
 
 def test_many_boxes_take_the_row_at_a_time_pass_and_match_the_reference() -> None:
-    from perception.nms import MATRIX_MAX
+    from lookahead.perception.nms import MATRIX_MAX
 
     rng = np.random.default_rng(7)
     n = MATRIX_MAX + 100

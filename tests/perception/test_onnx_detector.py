@@ -9,9 +9,9 @@ import onnx
 import pytest
 from onnx import TensorProto, helper, numpy_helper
 
-from perception.detections import CLASS_ID
-from perception.detectors import Detector, ModelError, OnnxDetector
-from perception.letterbox import letterbox, letterbox_boxes
+from lookahead.perception.detections import CLASS_ID
+from lookahead.perception.detectors import Detector, ModelError, OnnxDetector
+from lookahead.perception.letterbox import letterbox, letterbox_boxes
 
 S = 416  # model input side: scale 0.65, pad_y 91 px for a 360 x 640 image
 IMAGE = np.zeros((360, 640, 3), dtype=np.uint8)

@@ -6,8 +6,8 @@ import cv2
 import numpy as np
 import pytest
 
-import perception.preprocess as pp
-from perception.preprocess import (
+import lookahead.perception.preprocess as pp
+from lookahead.perception.preprocess import (
     GateConfig,
     LowContrastGate,
     Op,
@@ -21,7 +21,7 @@ from perception.preprocess import (
     register,
     registered_ops,
 )
-from sim.scenario import DetectorSpec, ScenarioError, load_scenario, parse_scenario
+from lookahead.sim.scenario import DetectorSpec, ScenarioError, load_scenario, parse_scenario
 
 FULL = {
     "chain": [{"op": "clahe", "clip_limit": 2.0, "tile": 8}, {"op": "median", "ksize": 3}, {"op": "gamma", "gamma": 0.8}],
@@ -53,8 +53,8 @@ def local_contrast(rgb: np.ndarray) -> float:
 @pytest.fixture(scope="module")
 def rendered():
     """A short rendered 320x180 run of a shipped scenario with the full chain (no gate) in the loop."""
-    from sim.records import RecordCollector
-    from sim.runner import Runner
+    from lookahead.sim.records import RecordCollector
+    from lookahead.sim.runner import Runner
 
     sc = load_scenario("scenarios/ped_crossing_nearside.yaml")
     pre = PreprocessConfig.model_validate({"chain": FULL["chain"], "device": "cpu"})
@@ -318,8 +318,8 @@ def test_scenario_bad_op_is_a_scenario_error_naming_the_field():
 
 
 def test_runner_without_rendering_passes_none_through():
-    from sim.records import RecordCollector
-    from sim.runner import STAGES, Runner
+    from lookahead.sim.records import RecordCollector
+    from lookahead.sim.runner import STAGES, Runner
 
     sc = parse_scenario(SCENARIO + "duration: 0.3\n")
     sink = RecordCollector()

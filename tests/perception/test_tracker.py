@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perception.detections import CLASS_ID, Detections
-from perception.tracker import Tracker, TrackerConfig, Tracks, TrackState
+from lookahead.perception.detections import CLASS_ID, Detections
+from lookahead.perception.tracker import Tracker, TrackerConfig, Tracks, TrackState
 
 PED, CAR = CLASS_ID["pedestrian"], CLASS_ID["car"]
 

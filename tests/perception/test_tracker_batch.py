@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
 
-from perception.detections import Detections
-from perception.geometry import iou_matrix
-from perception.tracker import (
+from lookahead.perception.detections import Detections
+from lookahead.perception.geometry import iou_matrix
+from lookahead.perception.tracker import (
     _MIN_SIZE_PX,
     _STATE_TO_XYXY,
     KF_F,

@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from perception.detections import Detections
-from perception.tracker import Tracker, TrackerConfig
+from lookahead.perception.detections import Detections
+from lookahead.perception.tracker import Tracker, TrackerConfig
 
 coord = st.one_of(
     st.floats(-50.0, 1000.0),

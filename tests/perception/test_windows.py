@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perception.detections import Detections
-from perception.detectors.windows import (
+from lookahead.perception.detections import Detections
+from lookahead.perception.detectors.windows import (
     DEFAULT_WINDOWS,
     KEEP_HEIGHT_FRACTION,
     MAX_HEIGHT_FRACTION,

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from sim.aeb import Aeb, AebConfig
-from sim.runner import Runner
-from sim.scenario import Scenario, load_scenario
+from lookahead.sim.aeb import Aeb, AebConfig
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import Scenario, load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 CROSS_TIME_S = 2.85  # pedestrian: 0.35 s to reach 1.4 m/s, then 3.5 m to the ego's centre line

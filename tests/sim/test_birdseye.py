@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from intent.labels import risk_colour
-from sim.birdseye import BACKGROUND, SIZE_PX, birdseye, to_pixel
+from lookahead.intent.labels import risk_colour
+from lookahead.sim.birdseye import BACKGROUND, SIZE_PX, birdseye, to_pixel
 
 
 def test_left_is_left_far_is_up_and_each_object_wears_its_risk():

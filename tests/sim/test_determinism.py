@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from sim.runner import Runner
-from sim.scenario import load_scenario
-from tools.rundir import RunDirWriter
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.rundir import RunDirWriter
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from intent.config import IntentConfig
-from intent.labels import Label
-from sim.groundtruth import compute_ground_truth, occlusion_from_boxes
-from sim.runner import camera_from_scenario
-from sim.scenario import parse_scenario
-from sim.world import World
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Label
+from lookahead.sim.groundtruth import compute_ground_truth, occlusion_from_boxes
+from lookahead.sim.runner import camera_from_scenario
+from lookahead.sim.scenario import parse_scenario
+from lookahead.sim.world import World
 
 SCENE = """
 name: gt

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import sim  # noqa: F401  (registers the environments)
-from intent.labels import risk_colour
-from sim import birdseye
-from sim.gym_env import LookaheadEnv
-from sim.scenario import load_scenario
+import lookahead.sim  # noqa: F401  (registers the environments)
+from lookahead.intent.labels import risk_colour
+from lookahead.sim import birdseye
+from lookahead.sim.gym_env import LookaheadEnv
+from lookahead.sim.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 STATIONARY = ROOT / "scenarios" / "stationary_car.yaml"

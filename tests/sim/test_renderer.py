@@ -8,11 +8,11 @@ import gc
 import numpy as np
 import pytest
 
-from perception.camera import CameraModel
-from perception.geometry import box_corners, iou_matrix, mask_boxes
-from sim.layout import Marking, Rect, RoadLayout
-from sim.renderer import Renderer, RenderResult
-from sim.shapes import ActorShape, Part, make_shape
+from lookahead.perception.camera import CameraModel
+from lookahead.perception.geometry import box_corners, iou_matrix, mask_boxes
+from lookahead.sim.layout import Marking, Rect, RoadLayout
+from lookahead.sim.renderer import Renderer, RenderResult
+from lookahead.sim.shapes import ActorShape, Part, make_shape
 
 # A two-lane road with a pavement on the right (y < -3.5) and roadside zones.
 ROAD = RoadLayout(

@@ -7,7 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from sim.scenario import ScenarioError, load_scenario, parse_scenario, scenario_json_schema
+from lookahead.sim.scenario import (
+    ScenarioError,
+    load_scenario,
+    parse_scenario,
+    scenario_json_schema,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
@@ -162,9 +167,9 @@ def test_bad_aeb_and_alert_settings(text, expected):
 
 
 def test_aeb_and_alert_settings_reach_the_runner():
-    from intent.alerts import AlertConfig
-    from sim.aeb import AebConfig
-    from sim.runner import Runner
+    from lookahead.intent.alerts import AlertConfig
+    from lookahead.sim.aeb import AebConfig
+    from lookahead.sim.runner import Runner
 
     sc = parse_scenario(BASE + "ego: {aeb: {latency: 0.5, decel: 4}}\nalerts: {on_frames_high: 3, off_frames: 5}\n")
     r = Runner(sc, render=False)
@@ -177,8 +182,8 @@ def test_aeb_and_alert_settings_reach_the_runner():
 def _aeb_run(aeb: str) -> tuple[float, float, list]:
     """(time the brake came on, final range to the stationary car (m), collisions) of
     ``scenarios/stationary_car.yaml`` with ``ego.aeb: AEB``, closed loop without rendering."""
-    from sim.records import RecordCollector
-    from sim.runner import Runner
+    from lookahead.sim.records import RecordCollector
+    from lookahead.sim.runner import Runner
 
     text = (ROOT / "scenarios" / "stationary_car.yaml").read_text()
     assert "controller: cruise}" in text

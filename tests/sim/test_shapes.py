@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.shapes import SUBTYPES, ActorShape, Part, make_shape
+from lookahead.sim.shapes import SUBTYPES, ActorShape, Part, make_shape
 
 ALL = [(c, s) for c, subs in SUBTYPES.items() for s in subs]
 PHASES = np.linspace(0.0, 2.0 * np.pi, 13)

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from perception.detectors.onnx_detector import OnnxDetector
-from sim.runner import DEFAULT_MODEL, Runner
-from sim.scenario import DetectorSpec, load_scenario
-from tools.scoring.matching import class_iou, hungarian_match
+from lookahead.perception.detectors.onnx_detector import OnnxDetector
+from lookahead.sim.runner import DEFAULT_MODEL, Runner
+from lookahead.sim.scenario import DetectorSpec, load_scenario
+from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from perception.camera import CameraModel
-from sim.layout import Marking, Rect, RoadLayout
-from sim.renderer import Renderer
-from sim.scenario import FOG_PRESETS, ScenarioError, WeatherSpec, parse_scenario
-from sim.weather import (
+from lookahead.perception.camera import CameraModel
+from lookahead.sim.layout import Marking, Rect, RoadLayout
+from lookahead.sim.renderer import Renderer
+from lookahead.sim.scenario import FOG_PRESETS, ScenarioError, WeatherSpec, parse_scenario
+from lookahead.sim.weather import (
     SKY_HORIZON_RGB,
     Weather,
     beta_from_visibility,
@@ -275,7 +275,7 @@ def test_weather_spec_accepts_presets_and_combinations() -> None:
 
 # ---------------------------------------------------------------------- the runner
 def test_runner_weathers_the_image_only() -> None:
-    from sim.runner import Runner
+    from lookahead.sim.runner import Runner
 
     text = """
 name: fog_hook

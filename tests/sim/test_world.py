@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from sim.scenario import parse_scenario
-from sim.world import World
+from lookahead.sim.scenario import parse_scenario
+from lookahead.sim.world import World
 
 BASE = """
 name: t

@@ -6,7 +6,7 @@ import json
 
 from typer.testing import CliRunner
 
-from tools.cli import app
+from lookahead.tools.cli import app
 
 
 def test_bench_detect_renders_at_the_camera_size_asked_for_with_the_windows_asked_for(tmp_path):

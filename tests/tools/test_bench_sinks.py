@@ -8,7 +8,7 @@ from pathlib import Path
 import yaml
 from typer.testing import CliRunner
 
-from tools.cli import app
+from lookahead.tools.cli import app
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from rich.console import Console
 
-from perception.detections import Detections
-from tools.bench_track import (
+from lookahead.perception.detections import Detections
+from lookahead.tools.bench_track import (
     DEEPSORT_EMBED_DIM,
     SIM_SCENARIOS,
     TRACKERS,

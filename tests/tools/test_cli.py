@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from tools.cli import app
+from lookahead.tools.cli import app
 
 ROOT = Path(__file__).resolve().parents[2]
 PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"

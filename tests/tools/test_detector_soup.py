@@ -11,10 +11,10 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from perception.detectors.onnx_detector import OnnxDetector  # noqa: E402
-from tools.detector.arch import ArchitectureError  # noqa: E402
-from tools.detector.model import CenterDet  # noqa: E402
-from tools.detector.soup import average_checkpoints, soup, soup_weights  # noqa: E402
+from lookahead.perception.detectors.onnx_detector import OnnxDetector  # noqa: E402
+from lookahead.tools.detector.arch import ArchitectureError  # noqa: E402
+from lookahead.tools.detector.model import CenterDet  # noqa: E402
+from lookahead.tools.detector.soup import average_checkpoints, soup, soup_weights  # noqa: E402
 
 SMALL = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8}
 
@@ -75,7 +75,7 @@ def test_checkpoints_of_different_architectures_cannot_be_averaged(tmp_path):
 def test_soup_detector_bad_input_is_one_line_and_exit_2(tmp_path):
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     _checkpoint(tmp_path / "a.pt", 1)
     (tmp_path / "notes.pt").write_text("not a checkpoint")

@@ -11,11 +11,11 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
-from perception.detectors.onnx_detector import OnnxDetector  # noqa: E402
-from tools.detector.data import STRIDE, encode  # noqa: E402
-from tools.detector.evaluate import evaluate_split, recall_at_precision  # noqa: E402
-from tools.detector.model import CenterDet, Decoded  # noqa: E402
-from tools.detector.train import TrainConfig, focal_loss, train  # noqa: E402
+from lookahead.perception.detectors.onnx_detector import OnnxDetector  # noqa: E402
+from lookahead.tools.detector.data import STRIDE, encode  # noqa: E402
+from lookahead.tools.detector.evaluate import evaluate_split, recall_at_precision  # noqa: E402
+from lookahead.tools.detector.model import CenterDet, Decoded  # noqa: E402
+from lookahead.tools.detector.train import TrainConfig, focal_loss, train  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -81,7 +81,7 @@ def test_recall_at_precision_and_ap_on_paper():
 
 
 def test_each_object_not_found_is_told_apart_as_wrong_class_loose_or_missed():
-    from tools.detector.data import Split
+    from lookahead.tools.detector.data import Split
 
     gt = np.array([[10, 10, 50, 90], [100, 10, 140, 90], [200, 10, 240, 90], [260, 10, 300, 90]], np.float32)
     split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 4, 4])],
@@ -103,7 +103,7 @@ def test_each_object_not_found_is_told_apart_as_wrong_class_loose_or_missed():
 
 
 def test_each_false_positive_is_told_apart_and_what_removing_its_kind_would_gain():
-    from tools.detector.data import Split
+    from lookahead.tools.detector.data import Split
 
     gt = np.array([[10, 10, 50, 90], [100, 10, 140, 90]], np.float32)  # a pedestrian, a car
     split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 4])],
@@ -134,7 +134,7 @@ def test_each_false_positive_is_told_apart_and_what_removing_its_kind_would_gain
 
 
 def test_a_minimum_height_makes_shorter_objects_and_detections_dont_care_as_kitti_does():
-    from tools.detector.data import Split
+    from lookahead.tools.detector.data import Split
 
     gt = np.array([[10, 10, 50, 90], [100, 40, 104, 50], [200, 40, 204, 50]], np.float32)  # 80, 10, 10 px tall
     split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 0])],
@@ -157,7 +157,7 @@ def test_a_minimum_height_makes_shorter_objects_and_detections_dont_care_as_kitt
 def test_a_split_reads_its_images_when_used_and_names_a_bad_one(tmp_path):
     import cv2
 
-    from tools.detector.data import load_split
+    from lookahead.tools.detector.data import load_split
 
     rng = np.random.default_rng(0)
     frames = [rng.integers(0, 256, (36, 64, 3), dtype=np.uint8) for _ in range(3)]
@@ -197,7 +197,7 @@ def _write_split(root: Path, frames: list[np.ndarray], category: int) -> None:
 
 
 def test_several_splits_read_as_one_in_order_and_a_limit_counts_across_them(tmp_path):
-    from tools.detector.data import load_splits
+    from lookahead.tools.detector.data import load_splits
 
     rng = np.random.default_rng(1)
     a = [rng.integers(0, 256, (36, 64, 3), dtype=np.uint8) for _ in range(2)]
@@ -215,7 +215,7 @@ def test_several_splits_read_as_one_in_order_and_a_limit_counts_across_them(tmp_
 
 
 def test_evaluate_split_counts_by_range_and_visibility():
-    from tools.detector.data import Split
+    from lookahead.tools.detector.data import Split
 
     gt = np.array([[10, 10, 50, 90], [100, 10, 140, 90], [200, 10, 240, 90]], np.float32)
     split = Split(images=np.zeros((1, 120, 320, 3), np.uint8), boxes=[gt], classes=[np.array([0, 0, 4])],
@@ -234,7 +234,7 @@ def test_evaluate_split_counts_by_range_and_visibility():
 @pytest.fixture(scope="module")
 def tiny_dataset(tmp_path_factory) -> Path:
     """Four training and two validation frames exported from the scene generator."""
-    from tools.export import export_generated
+    from lookahead.tools.export import export_generated
 
     root = tmp_path_factory.mktemp("det")
     gen = root / "gen.yaml"
@@ -262,7 +262,7 @@ def test_a_real_training_run_exports_a_model_the_detector_runs(tiny_dataset, tmp
 
 
 def test_an_interrupted_run_resumes_to_the_weights_of_an_uninterrupted_one(tiny_dataset, tmp_path):
-    from tools.detector.train import ResumeError, state_path
+    from lookahead.tools.detector.train import ResumeError, state_path
 
     cfg = TrainConfig(epochs=3, batch=2, warmup_steps=1, eval_every=2)
     whole = train(tiny_dataset, tmp_path / "whole.onnx", cfg)
@@ -297,9 +297,9 @@ def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
     # and train-mode BatchNorm on calibration-like batches changes the function only slightly
     import onnxruntime as ort
 
-    from perception.detectors.onnx_detector import ModelError
-    from tools.detector.from_onnx import load_exported
-    from tools.detector.train import export_onnx
+    from lookahead.perception.detectors.onnx_detector import ModelError
+    from lookahead.tools.detector.from_onnx import load_exported
+    from lookahead.tools.detector.train import export_onnx
 
     shipped = ROOT / "models" / "lookahead-det.onnx"
     rng = np.random.default_rng(0)
@@ -330,7 +330,7 @@ def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
 def test_resume_without_a_state_is_one_line_and_exit_2(tiny_dataset, tmp_path):
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"), "--resume"])
     assert res.exit_code == 2
@@ -351,8 +351,8 @@ def _randomised(net):
 
 
 def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
-    from tools.detector.arch import grow
-    from tools.detector.train import reg_loss
+    from lookahead.tools.detector.arch import grow
+    from lookahead.tools.detector.train import reg_loss
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
     wide = grow(small, CenterDet(widths=(12, 16, 32, 48, 40), neck=24, head=16))
@@ -375,8 +375,8 @@ def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
 
 
 def test_a_network_grows_into_a_deeper_one_that_computes_the_same_function():
-    from tools.detector.arch import grow
-    from tools.detector.train import reg_loss
+    from lookahead.tools.detector.arch import grow
+    from lookahead.tools.detector.train import reg_loss
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
     deep = grow(small, CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8, blocks=(1, 1, 2, 1)))
@@ -398,9 +398,9 @@ def test_a_network_grows_into_a_deeper_one_that_computes_the_same_function():
 
 
 def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(tmp_path):
-    from tools.detector.arch import ArchitectureError, architecture, grow
-    from tools.detector.from_onnx import exported_architecture
-    from tools.detector.train import export_onnx
+    from lookahead.tools.detector.arch import ArchitectureError, architecture, grow
+    from lookahead.tools.detector.from_onnx import exported_architecture
+    from lookahead.tools.detector.train import export_onnx
 
     assert exported_architecture(ROOT / "models" / "lookahead-det.onnx") == CenterDet().arch
     arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8, "blocks": (1, 0, 2, 1)}
@@ -418,8 +418,8 @@ def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(
 def test_a_larger_network_fine_tunes_from_a_smaller_model_and_exports(tiny_dataset, tmp_path):
     from typer.testing import CliRunner
 
-    from tools.cli import app
-    from tools.detector.from_onnx import exported_architecture
+    from lookahead.tools.cli import app
+    from lookahead.tools.detector.from_onnx import exported_architecture
 
     small = tmp_path / "small.onnx"
     cfg = dict(epochs=1, batch=2, warmup_steps=1, eval_every=0, widths=(8, 16, 24, 32, 40), neck=16, head=8)
@@ -438,7 +438,7 @@ def test_a_larger_network_fine_tunes_from_a_smaller_model_and_exports(tiny_datas
 
 
 def test_scale_jitter_magnifies_training_frames_as_a_zoom_window_does(tiny_dataset):
-    from tools.detector.data import TrainSampler, load_split
+    from lookahead.tools.detector.data import TrainSampler, load_split
 
     split = load_split(tiny_dataset / "train")
     i = int(np.argmax([len(b) for b in split.boxes]))
@@ -457,8 +457,8 @@ def test_a_frame_larger_than_the_input_is_magnified_from_its_own_pixels(monkeypa
     # a 1280 x 720 frame is half-size at the model input; scale 2 shows it at its own
     # resolution, so a 1-px checkerboard stays one, not the grey that resizing to 640 wide
     # first would leave; object sizes are those of the run-time letterbox times the scale
-    from tools.detector import data
-    from tools.detector.data import Split, TrainSampler
+    from lookahead.tools.detector import data
+    from lookahead.tools.detector.data import Split, TrainSampler
 
     monkeypatch.setattr(data, "_photometric", lambda img, rng: img)  # no blur or noise drawn
 
@@ -477,7 +477,7 @@ def test_a_frame_larger_than_the_input_is_magnified_from_its_own_pixels(monkeypa
 def test_a_reversed_scale_range_is_one_line_and_exit_2(tiny_dataset, tmp_path):
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
                                    "--scale", "2", "1"])
@@ -489,8 +489,8 @@ def test_a_run_from_an_exported_model_keeps_its_start_to_average_with(tiny_datas
     # the run's own weights at (1, 0) is the start again
     import onnxruntime as ort
 
-    from tools.detector.soup import soup
-    from tools.detector.train import init_checkpoint
+    from lookahead.tools.detector.soup import soup
+    from lookahead.tools.detector.train import init_checkpoint
 
     cfg = {"epochs": 1, "batch": 2, "warmup_steps": 1, "eval_every": 0}
     first = tmp_path / "first.onnx"
@@ -510,7 +510,7 @@ def test_a_run_from_an_exported_model_keeps_its_start_to_average_with(tiny_datas
 
 
 def test_balance_centres_crops_on_rare_classes_as_often_as_on_common_ones():
-    from tools.detector.data import Split, TrainSampler
+    from lookahead.tools.detector.data import Split, TrainSampler
 
     # one frame: nine cars at the left, one animal at the far right, out of reach of a car-centred crop
     cars = np.array([[20 + 12 * k, 150, 50 + 12 * k, 175] for k in range(9)], dtype=np.float32)
@@ -531,7 +531,7 @@ def test_balance_centres_crops_on_rare_classes_as_often_as_on_common_ones():
 def test_balance_out_of_range_is_one_line_and_exit_2(tiny_dataset, tmp_path):
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
                                    "--balance", "1.5"])
@@ -542,7 +542,7 @@ def test_a_run_trains_on_several_datasets_at_once_and_names_them(tiny_dataset, t
     import onnx
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     second = tmp_path / "more"
     (second / "train").mkdir(parents=True)

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 import yaml
 
-from perception.detections import CLASSES
-from perception.geometry import iou_matrix
-from perception.mot import read_mot
-from perception.tracker import TrackState
-from sim.scenario import load_scenario
-from tools.export import FORMATS, export_command, export_dataset, export_scenarios
+from lookahead.perception.detections import CLASSES
+from lookahead.perception.geometry import iou_matrix
+from lookahead.perception.mot import read_mot
+from lookahead.perception.tracker import TrackState
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.export import FORMATS, export_command, export_dataset, export_scenarios
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "urban_mix.yaml"  # many classes in view from the start
@@ -216,7 +216,7 @@ def test_a_generator_split_exported_with_other_seeds(tmp_path: Path) -> None:
     """``--seeds`` gives the scenes a file with that range would give; overlaps are refused."""
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     def gen(train: str) -> Path:
         path = tmp_path / f"gen_{train.replace(', ', '_')}.yaml"
@@ -246,7 +246,7 @@ def test_a_generator_exported_with_another_camera(tmp_path: Path) -> None:
     """``--camera WxH`` renders the file's scenes at that size: the same objects, boxes scaled."""
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     gen = tmp_path / "gen.yaml"
     gen.write_text("generator:\n  duration: 1.0\n  splits:\n    test: {seeds: [3, 4]}\n")
@@ -259,7 +259,7 @@ def test_a_generator_exported_with_another_camera(tmp_path: Path) -> None:
     assert {(im["width"], im["height"]) for im in small["images"]} == {(320, 180)}
     assert {(im["width"], im["height"]) for im in full["images"]} == {(640, 360)}
     assert len(small["images"]) == len(full["images"]) == 2
-    from tools.detector.data import load_split
+    from lookahead.tools.detector.data import load_split
 
     a, b = load_split(tmp_path / "small" / "test"), load_split(tmp_path / "file" / "test")
     for i in range(2):

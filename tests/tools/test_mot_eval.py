@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from perception.mot import MotRecords, read_mot, write_mot
-from tools.mot_cli import eval_mot_command, track_command
-from tools.mot_eval import evaluate_mot, run_tracker_on_mot
+from lookahead.perception.mot import MotRecords, read_mot, write_mot
+from lookahead.tools.mot_cli import eval_mot_command, track_command
+from lookahead.tools.mot_eval import evaluate_mot, run_tracker_on_mot
 
 
 def rows(*r: tuple) -> np.ndarray:
@@ -197,7 +197,7 @@ def _gap_sequence(seq_dir: Path, frame_rate: int | None, det_subdir: str = "det"
 def _cli_track(*args: str):
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     return CliRunner().invoke(app, ["track", *args])
 

@@ -46,9 +46,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from perception.mot import MotRecords, from_boxes, iter_frames, read_mot
-from perception.tracker import Tracker, TrackerConfig
-from tools.mot_eval import (
+from lookahead.perception.mot import MotRecords, from_boxes, iter_frames, read_mot
+from lookahead.perception.tracker import Tracker, TrackerConfig
+from lookahead.tools.mot_eval import (
     SCORE_PERCENTILE,
     evaluate_mot,
     mot_tracker_config,
@@ -57,7 +57,7 @@ from tools.mot_eval import (
     run_tracker_on_mot,
     track_records,
 )
-from tools.sort_reference import Sort
+from lookahead.tools.sort_reference import Sort
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "mot15"
 SEQUENCES = ("TUD-Campus", "TUD-Stadtmitte", "KITTI-17", "KITTI-13")

@@ -7,8 +7,8 @@ from pathlib import Path
 import yaml
 from typer.testing import CliRunner
 
-from tools.cli import app
-from tools.regress import compare, markdown
+from lookahead.tools.cli import app
+from lookahead.tools.regress import compare, markdown
 
 ROOT = Path(__file__).resolve().parents[2]
 SMOKE = ROOT / "scenarios" / "suites" / "smoke.yaml"

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import yaml
 
-from tools.replay import Perturbation, Perturber, replay_run, replay_suite
-from tools.suite import run_one
+from lookahead.tools.replay import Perturbation, Perturber, replay_run, replay_suite
+from lookahead.tools.suite import run_one
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Recorded values carry ticks.jsonl's rounding (boxes 0.01 px, odometry 1e-4): replayed floats
@@ -110,7 +110,7 @@ def test_changed_settings_show_up_and_aeb_divergence_is_counted(recorded, tmp_pa
 
 
 def test_perturbation_is_seeded_and_does_what_it_says():
-    from perception.detections import Detections
+    from lookahead.perception.detections import Detections
 
     n = 400
     base = np.tile([100.0, 100.0, 140.0, 200.0], (n, 1))
@@ -148,7 +148,7 @@ def test_perturbed_replay_and_suite_dir(recorded, tmp_path):
 def test_cli_replay(recorded, tmp_path):
     from typer.testing import CliRunner
 
-    from tools.cli import app
+    from lookahead.tools.cli import app
 
     r = CliRunner().invoke(app, ["replay", str(recorded), "--out", str(tmp_path / "c")])
     assert r.exit_code == 0, r.output

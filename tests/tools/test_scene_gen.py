@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from sim.scenario import ScenarioError
-from tools.export import with_camera
-from tools.scene_gen import GeneratorSpec, generate_scenario, load_generator, split_seeds
+from lookahead.sim.scenario import ScenarioError
+from lookahead.tools.export import with_camera
+from lookahead.tools.scene_gen import GeneratorSpec, generate_scenario, load_generator, split_seeds
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ROOT / "scenarios" / "generators" / "detector.yaml"

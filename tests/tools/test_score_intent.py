@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from tools.scoring.intent import intent_sections, load_intent_run
+from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 
 GT_LABELS = [1, 1, 1, 1, 1, 4, 4, 4, 4, 4]  # stable x5, danger x5
 PRED = [0, 1, 1, 1, 1, 1, 4, 4, 2, 4]  # initializing, stable..., late by one frame, one wrong 'approaching'

@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
-from sim.runner import Runner
-from sim.scenario import load_scenario
-from tools.query import WHATS, query_command
-from tools.rundir import RunDirWriter
-from tools.store import APPLICATION_ID, SCHEMA_VERSION, SqliteStore, StoreError
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.query import WHATS, query_command
+from lookahead.tools.rundir import RunDirWriter
+from lookahead.tools.store import APPLICATION_ID, SCHEMA_VERSION, SqliteStore, StoreError
 
 ROOT = Path(__file__).resolve().parents[2]
 PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
@@ -136,9 +136,9 @@ def test_query_bad_input_is_one_error_line(db, tmp_path, capsys):
 CRASH = """
 import os, signal, sys
 from pathlib import Path
-from sim.runner import Runner
-from sim.scenario import load_scenario
-from tools.store import SqliteStore
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import load_scenario
+from lookahead.tools.store import SqliteStore
 
 class Killer:
     def __init__(self, n): self.n, self.seen = n, 0
@@ -180,7 +180,7 @@ def test_a_run_that_raises_is_not_complete(tmp_path):
                 raise RuntimeError("boom")
         def on_end(self, summary): ...
 
-    from tools.rundir import RunDirWriter
+    from lookahead.tools.rundir import RunDirWriter
 
     path = tmp_path / "boom.sqlite"
     sc = load_scenario(PED)
@@ -209,7 +209,7 @@ def test_a_second_open_in_one_process_keeps_the_first_ones_writes_safe(tmp_path)
     # not yet collected) while other processes open and close theirs: nothing is lost.
     # Reading the file with a plain open() here used to drop this process's SQLite locks, so
     # another process closing its last connection checkpointed and deleted a WAL still in use.
-    from tools.store import open_db
+    from lookahead.tools.store import open_db
 
     path = tmp_path / "shared.sqlite"
     first = open_db(path)
@@ -270,7 +270,7 @@ def test_unwritable_path_raises(tmp_path):
 
 def test_assessments_table_matches_the_run_directory(db):
     """One assessments row per reported track per frame: label, behaviour, risk, TTC, in-path, reason."""
-    from intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES
+    from lookahead.intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES
 
     path, run_dir = db
     ticks = [json.loads(line) for line in (run_dir / "ticks.jsonl").read_text().splitlines()]

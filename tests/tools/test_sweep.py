@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from tools.cli import app
-from tools.sweep import SweepError, is_complete, load_sweep, run_sweep, variant_id
+from lookahead.tools.cli import app
+from lookahead.tools.sweep import SweepError, is_complete, load_sweep, run_sweep, variant_id
 
 ROOT = Path(__file__).resolve().parents[2]
 CAR = ROOT / "scenarios" / "stationary_car.yaml"
@@ -96,7 +96,7 @@ grid:
     _, _, variants = load_sweep(sw)
     ys = [v.scenario.actors[0].start.y for v in variants]
     assert ys[0] < ys[1] < ys[2] and ys[2] - ys[1] == pytest.approx(3.0)
-    from sim.runner import Runner
+    from lookahead.sim.runner import Runner
 
     hits = [bool(Runner(v.scenario, render=False).run().collisions) for v in variants]
     assert hits == [False, True, False]  # not yet there / hit centrally / already past
@@ -231,8 +231,8 @@ def _check_bench(result: dict, ratio: str) -> None:
 
 
 def test_bench_env_and_bench_sweep_json(tmp_path):
-    from tools.bench_env import bench_env
-    from tools.bench_sweep import bench_sweep
+    from lookahead.tools.bench_env import bench_env
+    from lookahead.tools.bench_sweep import bench_sweep
 
     env = bench_env(ROOT / "scenarios" / "highway_traffic.yaml", steps=20)
     _check_bench(env, "tracks_env_realtime_factor")

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from perception.mot import MotRecords, from_boxes, iter_frames
-from perception.tracker import Tracker
-from tools.mot_eval import evaluate_mot
-from tools.sort_reference import Sort
+from lookahead.perception.mot import MotRecords, from_boxes, iter_frames
+from lookahead.perception.tracker import Tracker
+from lookahead.tools.mot_eval import evaluate_mot
+from lookahead.tools.sort_reference import Sort
 
 W, H = 1280, 720
 PED, CAR = 0, 4
@@ -108,7 +108,7 @@ def make_sequence(seed: int, n_frames: int = 120) -> tuple[MotRecords, MotRecord
 
 
 def run_ours(dets: MotRecords, det_cls: np.ndarray, n_frames: int) -> MotRecords:
-    from perception.detections import Detections
+    from lookahead.perception.detections import Detections
 
     tracker = Tracker(frame_rate=10.0)
     out = []

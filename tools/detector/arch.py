@@ -32,7 +32,7 @@ from collections.abc import Iterable, Mapping
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # torch is the extra `train`; this module imports without it (constants, error class)
-    from tools.detector.model import CenterDet
+    from lookahead.tools.detector.model import CenterDet
 
 
 WIDTHS: tuple[int, int, int, int, int] = (24, 32, 64, 96, 128)  # backbone, strides 2, 4, 8, 16, 32
@@ -78,7 +78,7 @@ def architecture(shapes: Mapping[str, tuple[int, ...]]) -> dict:
     w = {name: int(shapes[key][0]) for key, name in _WIDTH_OF.items()}
     arch = {"widths": (w["w2"], w["w4"], w["w8"], w["w16"], w["w32"]), "neck": w["neck"], "head": w["head"],
             "blocks": added_blocks(shapes)}
-    from tools.detector.model import CenterDet
+    from lookahead.tools.detector.model import CenterDet
 
     ref = CenterDet(**arch).state_dict()
     for k, shape in shapes.items():

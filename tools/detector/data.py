@@ -33,7 +33,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from perception.letterbox import letterbox, letterbox_boxes
+from lookahead.perception.letterbox import letterbox, letterbox_boxes
 
 log = logging.getLogger(__name__)
 

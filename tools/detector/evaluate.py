@@ -50,10 +50,10 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.detections import CLASSES
-from tools.detector.data import Split, load_split
-from tools.scoring.detection import average_precision
-from tools.scoring.matching import (
+from lookahead.perception.detections import CLASSES
+from lookahead.tools.detector.data import Split, load_split
+from lookahead.tools.scoring.detection import average_precision
+from lookahead.tools.scoring.matching import (
     IOU_THRESHOLD,
     MIN_MATCH_SIZE_PX,
     class_iou,
@@ -238,7 +238,7 @@ def evaluate_split(
 def onnx_detect(model: str | Path, preprocess=None, windows: Sequence[Sequence[float]] = ()):
     """A ``detect`` callable running ``OnnxDetector`` at ``AP_CONF`` (with an optional
     ``perception.preprocess`` chain in front, and zoom ``windows``)."""
-    from perception.detectors.onnx_detector import OnnxDetector
+    from lookahead.perception.detectors.onnx_detector import OnnxDetector
 
     det = OnnxDetector(model, conf_threshold=AP_CONF, windows=windows)
 

@@ -19,7 +19,7 @@ import logging
 from collections.abc import Iterable
 from pathlib import Path
 
-from perception.detectors.onnx_detector import ModelError
+from lookahead.perception.detectors.onnx_detector import ModelError
 
 log = logging.getLogger(__name__)
 
@@ -83,8 +83,8 @@ def _exported_blocks(path: Path, convs: list[tuple]) -> tuple[int, ...]:
     (each added block is two convolutions)."""
     from torch import nn
 
-    from tools.detector.arch import STAGES
-    from tools.detector.model import CenterDet
+    from lookahead.tools.detector.arch import STAGES
+    from lookahead.tools.detector.model import CenterDet
 
     starts = [i for i, (_, _, stride) in enumerate(convs) if stride == 2]
     end = next((i for i, (w, _, _) in enumerate(convs) if starts and i > starts[-1] and w.shape[-1] == 1), None)
@@ -107,8 +107,8 @@ def exported_architecture(path: str | Path) -> dict:
     file's convolutions, in execution order, are named after the modules a ``CenterDet``
     with those blocks calls in that order (the order does not depend on the widths).
     """
-    from tools.detector.arch import ArchitectureError, architecture
-    from tools.detector.model import CenterDet
+    from lookahead.tools.detector.arch import ArchitectureError, architecture
+    from lookahead.tools.detector.model import CenterDet
 
     path = Path(path)
     exported = _onnx_convs(path)

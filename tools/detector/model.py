@@ -21,7 +21,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
+from lookahead.tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
 
 STRIDE = 4
 

@@ -19,8 +19,8 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
-from perception.detections import CLASSES
-from tools.detector.arch import ArchitectureError, architecture
+from lookahead.perception.detections import CLASSES
+from lookahead.tools.detector.arch import ArchitectureError, architecture
 
 
 def soup_weights(n: int, weights: Sequence[float] | None) -> list[float]:
@@ -70,8 +70,8 @@ def soup(paths: Sequence[Path], out: Path, weights: Sequence[float] | None = Non
     checkpoint ``out`` with suffix ``.pt`` beside it). Returns ``out``."""
     import torch
 
-    from tools.detector.model import CenterDet
-    from tools.detector.train import export_onnx, model_metadata
+    from lookahead.tools.detector.model import CenterDet
+    from lookahead.tools.detector.train import export_onnx, model_metadata
 
     w = soup_weights(len(paths), weights)
     state = average_checkpoints(paths, w)

@@ -40,9 +40,9 @@ from pathlib import Path
 
 import numpy as np
 
-from perception.detections import CLASSES
-from tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
-from tools.detector.data import SCALE_RANGE
+from lookahead.perception.detections import CLASSES
+from lookahead.tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
+from lookahead.tools.detector.data import SCALE_RANGE
 
 log = logging.getLogger(__name__)
 
@@ -106,7 +106,7 @@ def reg_loss(reg, index, target, valid):
     """L1 of offset and log size + (1 - IoU) at the objects' regression cells (mean over entries)."""
     import torch
 
-    from tools.detector.model import cell_offset, cell_size
+    from lookahead.tools.detector.model import cell_offset, cell_size
 
     b, c = reg.shape[:2]
     flat = reg.reshape(b, c, -1).permute(0, 2, 1)  # (B, HW, 4)
@@ -127,7 +127,7 @@ def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, 
     import onnx
     import torch
 
-    from tools.detector.model import Decoded
+    from lookahead.tools.detector.model import Decoded
 
     net = net.eval()
     dec = Decoded(net).eval()
@@ -233,11 +233,11 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
     """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower or shallower."""
     import torch
 
-    from tools.detector.arch import ArchitectureError, architecture, grow
-    from tools.detector.model import CenterDet
+    from lookahead.tools.detector.arch import ArchitectureError, architecture, grow
+    from lookahead.tools.detector.model import CenterDet
 
     if init.suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
-        from tools.detector.from_onnx import exported_architecture, load_exported
+        from lookahead.tools.detector.from_onnx import exported_architecture, load_exported
 
         src = CenterDet(len(CLASSES), **exported_architecture(init))
         calib_rng = np.random.default_rng([cfg.seed, 2])
@@ -274,9 +274,9 @@ def train(data_dir: str | Path | Sequence[str | Path], out: Path, cfg: TrainConf
 
     import torch
 
-    from tools.detector.data import TrainSampler, load_splits
-    from tools.detector.evaluate import evaluate_model
-    from tools.detector.model import CenterDet
+    from lookahead.tools.detector.data import TrainSampler, load_splits
+    from lookahead.tools.detector.evaluate import evaluate_model
+    from lookahead.tools.detector.model import CenterDet
 
     state = _load_state(state_path(out), cfg, data_dir) if resume else None
     torch.manual_seed(cfg.seed)

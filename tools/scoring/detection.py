@@ -31,9 +31,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from perception.detections import CLASSES
-from tools.scoring.io import DetFrame, GTFrame, RunData
-from tools.scoring.matching import class_iou, dont_care_hits, greedy_match
+from lookahead.perception.detections import CLASSES
+from lookahead.tools.scoring.io import DetFrame, GTFrame, RunData
+from lookahead.tools.scoring.matching import class_iou, dont_care_hits, greedy_match
 
 MIN_VISIBLE_FRACTION = 0.5
 MIN_BOX_HEIGHT_PX = 10.0

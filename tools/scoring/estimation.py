@@ -36,8 +36,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from tools.scoring.io import GTFrame, RunData, TrackFrame
-from tools.scoring.matching import class_iou, hungarian_match
+from lookahead.tools.scoring.io import GTFrame, RunData, TrackFrame
+from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
 UNOCCLUDED_MIN_VISIBLE_FRACTION = 0.9
 UNOCCLUDED_MAX_TRUNCATION = 0.05

@@ -35,9 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from intent.labels import LABEL_NAMES, Label, Risk
-from tools.scoring.io import RunDirError
-from tools.scoring.matching import IOU_THRESHOLD, class_iou, hungarian_match
+from lookahead.intent.labels import LABEL_NAMES, Label, Risk
+from lookahead.tools.scoring.io import RunDirError
+from lookahead.tools.scoring.matching import IOU_THRESHOLD, class_iou, hungarian_match
 
 LABEL_TOLERANCE_S = 0.3
 EPISODE_GAP_FRAMES = 2

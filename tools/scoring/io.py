@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from intent.config import IntentConfig
-from intent.labels import Label
-from perception.tracker import TrackState
-from sim.records import jsonable
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Label
+from lookahead.perception.tracker import TrackState
+from lookahead.sim.records import jsonable
 
 TICKS_FILE = "ticks.jsonl"
 METRICS_FILE = "metrics.json"

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from perception.geometry import grow_boxes, ioa_matrix, iou_matrix
+from lookahead.perception.geometry import grow_boxes, ioa_matrix, iou_matrix
 
 IOU_THRESHOLD = 0.5
 MIN_MATCH_SIZE_PX = 8.0

@@ -28,10 +28,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from tools.mot_eval import evaluate_mot
-from tools.scoring.detection import gt_selection
-from tools.scoring.io import GTFrame, RunData, TrackFrame
-from tools.scoring.matching import MIN_MATCH_SIZE_PX, class_iou, hungarian_match
+from lookahead.tools.mot_eval import evaluate_mot
+from lookahead.tools.scoring.detection import gt_selection
+from lookahead.tools.scoring.io import GTFrame, RunData, TrackFrame
+from lookahead.tools.scoring.matching import MIN_MATCH_SIZE_PX, class_iou, hungarian_match
 
 CLASS_SHIFT_PX = 1e5
 

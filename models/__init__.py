@@ -1,0 +1,1 @@
+"""The shipped detector and its model card, as package data (``importlib.resources``)."""

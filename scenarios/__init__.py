@@ -1,0 +1,1 @@
+"""The scenario catalogue (YAML scenarios, suites, sweeps, generators) as package data."""
