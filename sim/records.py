@@ -13,9 +13,13 @@ from lookahead.perception.frame import Frame
 from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth
 
+#: +inf as written in run files (-inf is ``-NEVER``), e.g. a TTC of "never"; readers decode
+#: ``abs(value) >= NEVER`` back to +-inf (``lookahead.tools.sinks.rundir``).
+NEVER = 1e9
+
 
 def jsonable(obj: Any) -> Any:
-    """Plain JSON types, deterministic: NaN -> None, +-inf -> +-1e9, numpy -> python."""
+    """Plain JSON types, deterministic: NaN -> None, +-inf -> +-``NEVER``, numpy -> python."""
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
@@ -31,7 +35,7 @@ def jsonable(obj: Any) -> Any:
         if math.isnan(f):
             return None
         if math.isinf(f):
-            return 1e9 if f > 0 else -1e9
+            return NEVER if f > 0 else -NEVER
         return f
     return obj
 

@@ -32,9 +32,9 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from lookahead.sim.scenario import ScenarioError
     from lookahead.tools.detector.arch import ArchitectureError
     from lookahead.tools.detector.train import ResumeError
-    from lookahead.tools.regress import BaselineError
-    from lookahead.tools.rundir import OutputError
-    from lookahead.tools.store import StoreError
+    from lookahead.tools.runs.regress import BaselineError
+    from lookahead.tools.sinks.rundir import OutputError
+    from lookahead.tools.sinks.store import StoreError
 
     return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
             FileNotFoundError, PermissionError, NotADirectoryError, IsADirectoryError)
@@ -91,7 +91,7 @@ def windows_option(text: str | None) -> tuple[tuple[float, ...], ...]:
 
 def save_bench(result: dict, out: Path) -> None:
     """Write a benchmark's JSON to ``out`` and print its table and ratios."""
-    from lookahead.tools.bench import print_bench
+    from lookahead.tools.bench.common import print_bench
 
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
@@ -132,22 +132,22 @@ def run_scenario(
     """
     from lookahead.sim.runner import Runner
     from lookahead.sim.scenario import load_scenario, with_detector
-    from lookahead.tools.rundir import RunDirWriter
+    from lookahead.tools.sinks.rundir import RunDirWriter
 
     scenario = with_detector(load_scenario(scenario_path), detector, model)
     runner = Runner(scenario, render=render, renderer_backend=renderer)
     try:
         sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
         if db is not None:  # opened (and checked) before anything runs
-            from lookahead.tools.store import SqliteStore
+            from lookahead.tools.sinks.store import SqliteStore
 
             sinks.append(SqliteStore(db, scenario, run_dir=out, source=str(scenario_path)))
         if video is not None:
-            from lookahead.tools.video import VideoSink
+            from lookahead.tools.sinks.video import VideoSink
 
             sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
         if rerun_file is not None or rerun_live:
-            from lookahead.tools.rerun_sink import RerunSink
+            from lookahead.tools.sinks.rerun import RerunSink
 
             sinks.append(RerunSink(rerun_file, spawn=rerun_live))
     except BaseException:
@@ -202,7 +202,7 @@ def suite(
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
 ) -> None:
     """Run and score every scenario of a suite; writes summary.json."""
-    from lookahead.tools.suite import load_suite, run_suite
+    from lookahead.tools.runs.suite import load_suite, run_suite
 
     _, paths = load_suite(suite_file)
     with _progress() as prog:
@@ -228,8 +228,14 @@ def regress(
     """Run a suite and compare its totals with a baseline; exit 1 on a regression."""
     import tempfile
 
-    from lookahead.tools.regress import compare, flatten, load_baseline, markdown, write_baseline
-    from lookahead.tools.suite import run_suite
+    from lookahead.tools.runs.regress import (
+        compare,
+        flatten,
+        load_baseline,
+        markdown,
+        write_baseline,
+    )
+    from lookahead.tools.runs.suite import run_suite
 
     base = None if update_baseline else load_baseline(baseline)  # fail before running anything
     with tempfile.TemporaryDirectory(prefix="lookahead-regress-") as tmp:
@@ -286,8 +292,8 @@ def render(
     """Write PNG camera frames with ground-truth boxes, ids and classes drawn."""
     from lookahead.sim.runner import Runner
     from lookahead.sim.scenario import load_scenario
-    from lookahead.tools.draw import draw_ground_truth, save_rgb
-    from lookahead.tools.rundir import prepare_dir
+    from lookahead.tools.sinks.draw import draw_ground_truth, save_rgb
+    from lookahead.tools.sinks.rundir import prepare_dir
 
     sc = load_scenario(scenario)
     prepare_dir(out)
@@ -361,7 +367,7 @@ def sweep(
     Finished variants are skipped on a re-run; a failing variant is recorded in
     summary.json and the others go on (exit 1 at the end if any failed).
     """
-    from lookahead.tools.sweep import is_complete, load_sweep, run_sweep
+    from lookahead.tools.runs.sweep import is_complete, load_sweep, run_sweep
 
     _, _, variants = load_sweep(sweep_file)
     todo = [v for v in variants if not is_complete(out.resolve() / "runs" / v.id, v.scenario)]
@@ -395,7 +401,7 @@ def bench_sim(
     frames: Annotated[int, typer.Option(help="rendered frames per resolution")] = 30,
 ) -> None:
     """ms per tick: bare highway-env, our world, and rendering at 640x360 and 960x540."""
-    from lookahead.tools.bench import bench_sim as run_bench
+    from lookahead.tools.bench.common import bench_sim as run_bench
 
     result = run_bench(scenario, ticks=ticks, frames=frames)
     save_bench(result, out)
@@ -404,7 +410,7 @@ def bench_sim(
 @app.command()
 def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> None:
     """Score a run directory into its metrics.json (detection, tracking, estimation)."""
-    from lookahead.tools.score import score_command
+    from lookahead.tools.scoring.run import score_command
 
     raise typer.Exit(score_command(run_dir))
 
@@ -424,7 +430,7 @@ def replay(
     seed: Annotated[int, typer.Option(min=0, help="perturb: random stream")] = 0,
 ) -> None:
     """Re-run tracker, estimator, intent and alerts on a run's recorded detections; write and score a new run."""
-    from lookahead.tools.replay import Perturbation, replay_command
+    from lookahead.tools.runs.replay import Perturbation, replay_command
 
     perturb = Perturbation(jitter=jitter, bottom_sigma=bottom_noise, correlation=correlation, scale_bias=scale_bias,
                            miss_rate=miss_rate, class_flip=class_flip, seed=seed)
@@ -446,7 +452,7 @@ def query(
     fmt: Annotated[str, typer.Option("--format", help="table | csv | json")] = "table",
 ) -> None:
     """Reports from a run database: alert events, tracks, GT objects, per-run summary."""
-    from lookahead.tools.query import query_command
+    from lookahead.tools.reports.query import query_command
 
     raise typer.Exit(query_command(db, what, run, fmt))
 
@@ -456,7 +462,7 @@ def report(
     path: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR|SWEEP_DIR", help="run, suite or sweep directory")],
 ) -> None:
     """Write a self-contained report.html (metrics, plots, key frames) for a run, a suite or a sweep."""
-    from lookahead.tools.report import report_command
+    from lookahead.tools.reports.report import report_command
 
     raise typer.Exit(report_command(path))
 
@@ -484,7 +490,7 @@ def export_dataset(
     A generator file (``generator:`` section, see scenarios/generators/) exports one
     dataset per split (disjoint seed ranges) into OUT/<split>.
     """
-    from lookahead.tools.export import export_command
+    from lookahead.tools.dataset.export import export_command
 
     raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds,
                                     camera=camera_option(camera)))
@@ -641,7 +647,7 @@ def track(
     frame_rate: Annotated[float | None, typer.Option(help="frames per second; default: frameRate of the sequence's seqinfo.ini, else 30")] = None,
 ) -> None:
     """Run the tracker over a MOTChallenge detection file."""
-    from lookahead.tools.mot_cli import track_command
+    from lookahead.tools.runs.mot import track_command
 
     raise typer.Exit(track_command(det, out, frame_rate))
 
@@ -653,7 +659,7 @@ def eval_mot(
     format: Annotated[str, typer.Option("--format", help="table | json")] = "table",
 ) -> None:
     """MOTA, MOTP, IDF1, HOTA, ID switches, FP, FN, MT/ML of a tracks file (TrackEval)."""
-    from lookahead.tools.mot_cli import eval_mot_command
+    from lookahead.tools.runs.mot import eval_mot_command
 
     raise typer.Exit(eval_mot_command(gt, tracks, format))
 
@@ -665,7 +671,7 @@ def bench_all(
     repeats: Annotated[int, typer.Option(help="repeats for the track and sinks benchmarks")] = 3,
 ) -> None:
     """Every benchmark (sim, track, sinks, env, sweep, the full loop) in one process; one JSON with all ratios."""
-    from lookahead.tools.bench_all import bench_all as run_bench
+    from lookahead.tools.bench.all import bench_all as run_bench
 
     result = run_bench(repeats=repeats)
     save_bench(result, out)
@@ -687,7 +693,7 @@ def bench_detect(
 ) -> None:
     """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360 by default."""
     from lookahead.sim.runner import DEFAULT_MODEL
-    from lookahead.tools.bench_detect import bench_detect as run_bench
+    from lookahead.tools.bench.detect import bench_detect as run_bench
 
     result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows),
                        camera_option(camera))
@@ -705,7 +711,7 @@ def bench_sinks(
     repeats: Annotated[int, typer.Option(help="runs per configuration")] = 3,
 ) -> None:
     """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
-    from lookahead.tools.bench_sinks import bench_sinks as run_bench
+    from lookahead.tools.bench.sinks import bench_sinks as run_bench
 
     result = run_bench(scenario, repeats=repeats)
     save_bench(result, out)
@@ -718,8 +724,8 @@ def bench_track(
     repeats: Annotated[int, typer.Option(help="timed passes over every sequence")] = 3,
 ) -> None:
     """fps and MOTA/IDF1: our tracker vs deep-sort-realtime (no embedder) on MOT15 and simulated detections."""
-    from lookahead.tools.bench_track import bench_track as run_bench
-    from lookahead.tools.bench_track import print_track_bench
+    from lookahead.tools.bench.track import bench_track as run_bench
+    from lookahead.tools.bench.track import print_track_bench
 
     result = run_bench(out, repeats=repeats)
     print_track_bench(result, console)
@@ -733,7 +739,7 @@ def bench_env(
     steps: Annotated[int, typer.Option(help="timed env steps")] = 600,
 ) -> None:
     """ForwardTracks-v0 steps vs bare highway-env with the same traffic; real-time factor."""
-    from lookahead.tools.bench_env import bench_env as run_bench
+    from lookahead.tools.bench.env import bench_env as run_bench
 
     result = run_bench(scenario, steps=steps)
     save_bench(result, out)
@@ -749,7 +755,7 @@ def bench_sweep(
     repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
 ) -> None:
     """Wall time of one sweep on 1 worker and on 2 workers (warm pools, rendering off)."""
-    from lookahead.tools.bench_sweep import bench_sweep as run_bench
+    from lookahead.tools.bench.sweep import bench_sweep as run_bench
 
     result = run_bench(sweep_file, variants=variants, repeats=repeats)
     save_bench(result, out)
@@ -759,9 +765,12 @@ def bench_sweep(
 @user_errors
 def demo(out: Annotated[Path, typer.Option("--out")] = Path("out/demo")) -> None:
     """The main job: run the smoke suite and render a few annotated frames."""
-    from lookahead.tools.demo import run_demo
+    from lookahead.tools.runs.demo import run_demo
 
-    run_demo(out, console)
+    result = run_demo(out)
+    print_suite(result.summary)
+    console.print(f"report: {result.report}\nvideo: {result.video}\nrerun: {result.rerun}\n"
+                  f"database: {result.database}", highlight=False)
 
 
 def main() -> None:

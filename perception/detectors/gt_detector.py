@@ -63,7 +63,8 @@ def _confusion_table() -> tuple[np.ndarray, np.ndarray]:
     return table, count
 
 
-_CONF_TABLE, _CONF_COUNT = _confusion_table()
+#: Per class id: the ids it may be mistaken for (``CONFUSABLE``, padded with 0) and how many there are.
+CONFUSION_TABLE, CONFUSION_COUNT = _confusion_table()
 _ASPECTS = np.array([_ASPECT[c] for c in CLASSES])
 
 
@@ -196,9 +197,9 @@ class GtNoiseDetector:
         if np.any(swap):
             c = cls[swap]
             pick = np.minimum(
-                (u_pick[ok][swap] * _CONF_COUNT[c]).astype(np.int64), _CONF_COUNT[c] - 1
+                (u_pick[ok][swap] * CONFUSION_COUNT[c]).astype(np.int64), CONFUSION_COUNT[c] - 1
             )
-            cls[swap] = _CONF_TABLE[c, pick]
+            cls[swap] = CONFUSION_TABLE[c, pick]
 
         ease = np.sqrt(vis) * (1.0 - np.exp(-h / cfg.score_size_px))
         score = cfg.score_hard + (cfg.score_easy - cfg.score_hard) * ease

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.rundir import RunDirWriter
+from lookahead.tools.sinks.rundir import RunDirWriter
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -13,7 +13,7 @@ import pytest
 from lookahead.perception.geometry import iou_matrix
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.suite import load_suite
+from lookahead.tools.runs.suite import load_suite
 
 ROOT = Path(__file__).resolve().parents[2]
 MIN_HEIGHT_PX = 10.0  # objects smaller than this are below what detectors are asked to find

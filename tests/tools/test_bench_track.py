@@ -1,4 +1,4 @@
-"""``tools.bench_track``: our tracker vs deep-sort-realtime on the same detections.
+"""``tools.bench.track``: our tracker vs deep-sort-realtime on the same detections.
 
 One reduced run (one MOT15 sequence, one short scenario, one repeat) checks the
 JSON shape, that both trackers were fed identical inputs, and that the accuracy
@@ -17,7 +17,7 @@ import pytest
 from rich.console import Console
 
 from lookahead.perception.detections import Detections
-from lookahead.tools.bench_track import (
+from lookahead.tools.bench.track import (
     DEEPSORT_EMBED_DIM,
     SIM_SCENARIOS,
     TRACKERS,

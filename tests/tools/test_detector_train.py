@@ -234,7 +234,7 @@ def test_evaluate_split_counts_by_range_and_visibility():
 @pytest.fixture(scope="module")
 def tiny_dataset(tmp_path_factory) -> Path:
     """Four training and two validation frames exported from the scene generator."""
-    from lookahead.tools.export import export_generated
+    from lookahead.tools.dataset.export import export_generated
 
     root = tmp_path_factory.mktemp("det")
     gen = root / "gen.yaml"
@@ -351,7 +351,7 @@ def _randomised(net):
 
 
 def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
-    from lookahead.tools.detector.arch import grow
+    from lookahead.tools.detector.growth import grow
     from lookahead.tools.detector.train import reg_loss
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
@@ -375,7 +375,7 @@ def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
 
 
 def test_a_network_grows_into_a_deeper_one_that_computes_the_same_function():
-    from lookahead.tools.detector.arch import grow
+    from lookahead.tools.detector.growth import grow
     from lookahead.tools.detector.train import reg_loss
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
@@ -398,8 +398,9 @@ def test_a_network_grows_into_a_deeper_one_that_computes_the_same_function():
 
 
 def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(tmp_path):
-    from lookahead.tools.detector.arch import ArchitectureError, architecture, grow
+    from lookahead.tools.detector.arch import ArchitectureError
     from lookahead.tools.detector.from_onnx import exported_architecture
+    from lookahead.tools.detector.growth import architecture, grow
     from lookahead.tools.detector.train import export_onnx
 
     assert exported_architecture(ROOT / "models" / "lookahead-det.onnx") == CenterDet().arch

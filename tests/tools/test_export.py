@@ -16,7 +16,7 @@ from lookahead.perception.geometry import iou_matrix
 from lookahead.perception.mot import read_mot
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.export import FORMATS, export_command, export_dataset, export_scenarios
+from lookahead.tools.dataset.export import FORMATS, export_command, export_dataset, export_scenarios
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "urban_mix.yaml"  # many classes in view from the start

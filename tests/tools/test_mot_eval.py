@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from lookahead.perception.mot import MotRecords, read_mot, write_mot
-from lookahead.tools.mot_cli import eval_mot_command, track_command
-from lookahead.tools.mot_eval import evaluate_mot, run_tracker_on_mot
+from lookahead.tools.runs.mot import eval_mot_command, track_command
+from lookahead.tools.scoring.mot_eval import evaluate_mot, run_tracker_on_mot
 
 
 def rows(*r: tuple) -> np.ndarray:

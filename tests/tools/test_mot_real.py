@@ -4,10 +4,10 @@ Data (``tests/data/mot15``, provenance and licence in its README): the public AC
 detections (``det.txt``), ground truth (``gt.txt``) and ``seqinfo.ini`` of TUD-Campus,
 TUD-Stadtmitte (25 fps, 640x480), KITTI-17 and KITTI-13 (10 fps, ~1230x370). Both
 trackers get the same detections; everything is evaluated with
-``tools.mot_eval.evaluate_mot`` (TrackEval CLEAR / Identity / HOTA; MOT15 GT rows with
+``tools.scoring.mot_eval.evaluate_mot`` (TrackEval CLEAR / Identity / HOTA; MOT15 GT rows with
 conf 0 are ignored).
 
-- SORT: ``tools.sort_reference.Sort()`` with its defaults (max_age=1, min_hits=3,
+- SORT: ``tools.bench.sort_reference.Sort()`` with its defaults (max_age=1, min_hits=3,
   IoU 0.3), fed every public detection as is, as in Bewley et al. (SORT ignores scores).
 - Ours: what ``lookahead track --det <seq>/det.txt`` runs (``run_tracker_on_mot``;
   ``test_cli_path_is_the_evaluated_path`` checks the files are identical):
@@ -15,7 +15,7 @@ conf 0 are ignored).
   normalised per sequence, ``clip(conf / P75(conf), 0, 1)`` (``normalise_scores``: MOT15
   ACF scores are unbounded, -0.8 .. 123 here, while ``TrackerConfig``'s thresholds
   assume [0, 1]). The MOT settings and why are documented at
-  ``tools.mot_eval.MOT_TRACKER_OVERRIDES``: no coasting boxes, 0.3 s memory,
+  ``tools.scoring.mot_eval.MOT_TRACKER_OVERRIDES``: no coasting boxes, 0.3 s memory,
   pedestrian acceleration noise (1 box size/s^2).
 
 Tests:
@@ -48,7 +48,8 @@ import pytest
 
 from lookahead.perception.mot import MotRecords, from_boxes, iter_frames, read_mot
 from lookahead.perception.tracker import Tracker, TrackerConfig
-from lookahead.tools.mot_eval import (
+from lookahead.tools.bench.sort_reference import Sort
+from lookahead.tools.scoring.mot_eval import (
     SCORE_PERCENTILE,
     evaluate_mot,
     mot_tracker_config,
@@ -57,7 +58,6 @@ from lookahead.tools.mot_eval import (
     run_tracker_on_mot,
     track_records,
 )
-from lookahead.tools.sort_reference import Sort
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "mot15"
 SEQUENCES = ("TUD-Campus", "TUD-Stadtmitte", "KITTI-17", "KITTI-13")
@@ -233,7 +233,7 @@ def test_leave_one_sequence_out_vs_sort() -> None:
     reason="known: with a 1 s memory and no appearance model, lost tracks in TUD-Stadtmitte's crowd "
     "come back on a neighbour 0.4-0.8 s later (IDF1 0.548, HOTA 0.340 vs SORT 0.558, 0.381); "
     "why MOT_TRACKER_OVERRIDES fixes max_lost_s at 0.3 s instead of selecting it. If this passes, "
-    "revisit the memory (and the leave-one-out grid) in tools/mot_eval.py",
+    "revisit the memory (and the leave-one-out grid) in tools/scoring/mot_eval.py",
 )
 def test_one_second_memory_loses_in_a_crowd() -> None:
     ours = {"TUD-Stadtmitte": ours_metrics("TUD-Stadtmitte", max_lost_s=1.0)}

@@ -8,7 +8,7 @@ import yaml
 from typer.testing import CliRunner
 
 from lookahead.tools.cli import app
-from lookahead.tools.regress import compare, markdown
+from lookahead.tools.runs.regress import compare, markdown
 
 ROOT = Path(__file__).resolve().parents[2]
 SMOKE = ROOT / "scenarios" / "suites" / "smoke.yaml"

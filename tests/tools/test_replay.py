@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 import yaml
 
-from lookahead.tools.replay import Perturbation, Perturber, replay_run, replay_suite
-from lookahead.tools.suite import run_one
+from lookahead.tools.runs.replay import Perturbation, Perturber, replay_run, replay_suite
+from lookahead.tools.runs.suite import run_one
 
 ROOT = Path(__file__).resolve().parents[2]
 #: Recorded values carry ticks.jsonl's rounding (boxes 0.01 px, odometry 1e-4): replayed floats

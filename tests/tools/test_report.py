@@ -14,9 +14,9 @@ import pytest
 
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.report import REPORT_FILE, build_report, report_command
-from lookahead.tools.rundir import RunDirWriter
-from lookahead.tools.score import score_run, score_suite
+from lookahead.tools.reports.report import REPORT_FILE, build_report, report_command
+from lookahead.tools.scoring.run import score_run, score_suite
+from lookahead.tools.sinks.rundir import RunDirWriter
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
@@ -126,8 +126,8 @@ def test_suite_report_rows_and_relative_links(run_dir: Path, tmp_path: Path) -> 
 
 def test_key_frames_come_from_annotated_mp4_without_saved_frames(tmp_path: Path) -> None:
     """A rendered run with --video and no frames/: the strip is the video's key frames (JPEG)."""
-    from lookahead.tools.demo import key_frame_reason
-    from lookahead.tools.video import VideoSink
+    from lookahead.tools.sinks.keyframes import key_frame_reason
+    from lookahead.tools.sinks.video import VideoSink
 
     sc = load_scenario(SCENARIO)
     det = sc.perception.detector.model_copy(update={"kind": "gt"})  # the default ONNX model may be absent

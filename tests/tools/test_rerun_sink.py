@@ -16,7 +16,7 @@ from lookahead.intent.labels import Risk  # noqa: E402
 from lookahead.sim.records import RecordCollector  # noqa: E402
 from lookahead.sim.runner import Runner  # noqa: E402
 from lookahead.sim.scenario import load_scenario, with_detector  # noqa: E402
-from lookahead.tools.rerun_sink import RerunSink  # noqa: E402
+from lookahead.tools.sinks.rerun import RerunSink  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -94,7 +94,7 @@ def test_needs_a_destination():
 
 
 def test_unwritable_path_is_one_line_output_error(tmp_path):
-    from lookahead.tools.rundir import OutputError
+    from lookahead.tools.sinks.rundir import OutputError
 
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="Rerun recording"):

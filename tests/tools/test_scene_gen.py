@@ -7,8 +7,13 @@ from pathlib import Path
 import pytest
 
 from lookahead.sim.scenario import ScenarioError
-from lookahead.tools.export import with_camera
-from lookahead.tools.scene_gen import GeneratorSpec, generate_scenario, load_generator, split_seeds
+from lookahead.tools.dataset.export import with_camera
+from lookahead.tools.dataset.scene_gen import (
+    GeneratorSpec,
+    generate_scenario,
+    load_generator,
+    split_seeds,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ROOT / "scenarios" / "generators" / "detector.yaml"

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from lookahead.tools.score import score_command, score_run
+from lookahead.tools.scoring.run import score_command, score_run
 
 PED, CAR = 0, 4
 A = [0.0, 0.0, 10.0, 20.0]  # pedestrian box, 10 x 20 px

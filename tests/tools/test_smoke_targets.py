@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from lookahead.tools.suite import run_suite
+from lookahead.tools.runs.suite import run_suite
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -15,9 +15,9 @@ import pytest
 
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.query import WHATS, query_command
-from lookahead.tools.rundir import RunDirWriter
-from lookahead.tools.store import APPLICATION_ID, SCHEMA_VERSION, SqliteStore, StoreError
+from lookahead.tools.reports.query import WHATS, query_command
+from lookahead.tools.sinks.rundir import RunDirWriter
+from lookahead.tools.sinks.store import APPLICATION_ID, SCHEMA_VERSION, SqliteStore, StoreError
 
 ROOT = Path(__file__).resolve().parents[2]
 PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
@@ -138,7 +138,7 @@ import os, signal, sys
 from pathlib import Path
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.store import SqliteStore
+from lookahead.tools.sinks.store import SqliteStore
 
 class Killer:
     def __init__(self, n): self.n, self.seen = n, 0
@@ -180,7 +180,7 @@ def test_a_run_that_raises_is_not_complete(tmp_path):
                 raise RuntimeError("boom")
         def on_end(self, summary): ...
 
-    from lookahead.tools.rundir import RunDirWriter
+    from lookahead.tools.sinks.rundir import RunDirWriter
 
     path = tmp_path / "boom.sqlite"
     sc = load_scenario(PED)
@@ -209,7 +209,7 @@ def test_a_second_open_in_one_process_keeps_the_first_ones_writes_safe(tmp_path)
     # not yet collected) while other processes open and close theirs: nothing is lost.
     # Reading the file with a plain open() here used to drop this process's SQLite locks, so
     # another process closing its last connection checkpointed and deleted a WAL still in use.
-    from lookahead.tools.store import open_db
+    from lookahead.tools.sinks.store import open_db
 
     path = tmp_path / "shared.sqlite"
     first = open_db(path)

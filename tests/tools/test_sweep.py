@@ -16,7 +16,7 @@ import pytest
 from typer.testing import CliRunner
 
 from lookahead.tools.cli import app
-from lookahead.tools.sweep import SweepError, is_complete, load_sweep, run_sweep, variant_id
+from lookahead.tools.runs.sweep import SweepError, is_complete, load_sweep, run_sweep, variant_id
 
 ROOT = Path(__file__).resolve().parents[2]
 CAR = ROOT / "scenarios" / "stationary_car.yaml"
@@ -231,8 +231,8 @@ def _check_bench(result: dict, ratio: str) -> None:
 
 
 def test_bench_env_and_bench_sweep_json(tmp_path):
-    from lookahead.tools.bench_env import bench_env
-    from lookahead.tools.bench_sweep import bench_sweep
+    from lookahead.tools.bench.env import bench_env
+    from lookahead.tools.bench.sweep import bench_sweep
 
     env = bench_env(ROOT / "scenarios" / "highway_traffic.yaml", steps=20)
     _check_bench(env, "tracks_env_realtime_factor")

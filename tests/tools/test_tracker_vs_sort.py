@@ -15,8 +15,8 @@ import numpy as np
 
 from lookahead.perception.mot import MotRecords, from_boxes, iter_frames
 from lookahead.perception.tracker import Tracker
-from lookahead.tools.mot_eval import evaluate_mot
-from lookahead.tools.sort_reference import Sort
+from lookahead.tools.bench.sort_reference import Sort
+from lookahead.tools.scoring.mot_eval import evaluate_mot
 
 W, H = 1280, 720
 PED, CAR = 0, 4

@@ -15,8 +15,8 @@ from lookahead.intent.labels import Risk, risk_colour
 from lookahead.sim.records import RecordCollector
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools import video
-from lookahead.tools.video import VideoSink, find_cjk_font
+from lookahead.tools.sinks import video
+from lookahead.tools.sinks.video import VideoSink, find_cjk_font
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -101,7 +101,7 @@ def test_alert_banner_shows_the_latest_alert_reason(rendered):
 def test_frames_without_image_are_skipped_with_one_warning(tmp_path, caplog):
     sc = short_scenario(1.0)
     sink = VideoSink(tmp_path / "none.mp4", fps=sc.camera.rate)
-    with caplog.at_level(logging.WARNING, logger="lookahead.tools.video"):
+    with caplog.at_level(logging.WARNING, logger="lookahead.tools.sinks.video"):
         summary = Runner(sc, sinks=[sink], render=False).run()
     assert summary.frames > 1 and sink.frames_written == 0
     assert len([m for m in caplog.messages if "rendering off" in m]) == 1
@@ -110,7 +110,7 @@ def test_frames_without_image_are_skipped_with_one_warning(tmp_path, caplog):
 def test_zh_without_a_cjk_font_warns_once_and_falls_back(monkeypatch, tmp_path, caplog):
     monkeypatch.setattr(video, "find_cjk_font", lambda *a, **k: None)
     monkeypatch.setattr(video, "_FONT_WARNED", False)
-    with caplog.at_level(logging.WARNING, logger="lookahead.tools.video"):
+    with caplog.at_level(logging.WARNING, logger="lookahead.tools.sinks.video"):
         sinks = [VideoSink(tmp_path / f"{i}.mp4", fps=10, lang="zh") for i in range(2)]
     assert [s.lang for s in sinks] == ["en", "en"]
     msgs = [m for m in caplog.messages if "no CJK font found" in m]
@@ -146,7 +146,7 @@ def test_font_search_by_file_name(monkeypatch, tmp_path):
 
 
 def test_unwritable_path_is_one_line_output_error(tmp_path):
-    from lookahead.tools.rundir import OutputError
+    from lookahead.tools.sinks.rundir import OutputError
 
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="video's directory"):
@@ -155,7 +155,7 @@ def test_unwritable_path_is_one_line_output_error(tmp_path):
 
 def test_bad_paths_fail_when_the_sink_is_made(tmp_path):
     """Checked in __init__ (before any sink starts): a directory, a parent that is a file."""
-    from lookahead.tools.rundir import OutputError
+    from lookahead.tools.sinks.rundir import OutputError
 
     (tmp_path / "file").write_text("keep")
     (tmp_path / "dir.mp4").mkdir()
@@ -169,7 +169,7 @@ def test_bad_paths_fail_when_the_sink_is_made(tmp_path):
 
 
 def test_missing_encoder_is_an_output_error_at_construction(tmp_path, monkeypatch):
-    from lookahead.tools.rundir import OutputError
+    from lookahead.tools.sinks.rundir import OutputError
 
     monkeypatch.setattr(video, "_WORKING_FOURCC", None)
     monkeypatch.setattr(video, "FOURCCS", ("zzzz",))
@@ -179,8 +179,8 @@ def test_missing_encoder_is_an_output_error_at_construction(tmp_path, monkeypatc
 
 
 def test_key_frames_are_the_video_overlay(rendered, tmp_path):
-    """tools.demo.KeyFrameSink draws with the video's Overlay: its PNGs equal VideoSink.annotate."""
-    from lookahead.tools.demo import KEY_FRAMES_INDEX, KeyFrameSink
+    """tools.sinks.keyframes.KeyFrameSink draws with the video's Overlay: its PNGs equal VideoSink.annotate."""
+    from lookahead.tools.sinks.keyframes import KEY_FRAMES_INDEX, KeyFrameSink
 
     _, _, _, records, _ = rendered
     keys = KeyFrameSink(tmp_path / "frames", len(records))

@@ -107,7 +107,8 @@ def exported_architecture(path: str | Path) -> dict:
     file's convolutions, in execution order, are named after the modules a ``CenterDet``
     with those blocks calls in that order (the order does not depend on the widths).
     """
-    from lookahead.tools.detector.arch import ArchitectureError, architecture
+    from lookahead.tools.detector.arch import ArchitectureError
+    from lookahead.tools.detector.growth import architecture
     from lookahead.tools.detector.model import CenterDet
 
     path = Path(path)

@@ -20,7 +20,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from lookahead.perception.detections import CLASSES
-from lookahead.tools.detector.arch import ArchitectureError, architecture
+from lookahead.tools.detector.arch import ArchitectureError
+from lookahead.tools.detector.growth import architecture
 
 
 def soup_weights(n: int, weights: Sequence[float] | None) -> list[float]:

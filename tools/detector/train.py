@@ -233,7 +233,8 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
     """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower or shallower."""
     import torch
 
-    from lookahead.tools.detector.arch import ArchitectureError, architecture, grow
+    from lookahead.tools.detector.arch import ArchitectureError
+    from lookahead.tools.detector.growth import architecture, grow
     from lookahead.tools.detector.model import CenterDet
 
     if init.suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it

@@ -1,6 +1,6 @@
 """Read a run directory's ``ticks.jsonl`` into typed per-frame arrays; merge ``metrics.json``.
 
-``ticks.jsonl`` conventions (``tools/rundir.py``): ``null`` is read as NaN, and
+``ticks.jsonl`` conventions (``tools/sinks/rundir.py``): ``null`` is read as NaN, and
 +inf was written as 1e9, which is kept as is (a finite, huge number). A missing
 visible box (``null`` or four ``null`` s) becomes a NaN row. Frames are numbered
 by their position in the file (0-based), blank lines are skipped.

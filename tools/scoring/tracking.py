@@ -11,7 +11,7 @@ Don't-care GT (visible but not evaluated) is removed, and so is every reported
 track that a one-to-one Hungarian matching (IoU >= 0.5; same class with evaluated GT,
 any class with don't-care GT of a detection class, ``matching.class_iou``'s ``any_class``) pairs
 with a don't-care GT box -- TrackEval's MOT16 distractor rule, done here before calling
-``tools.mot_eval.evaluate_mot`` (which then runs with its preprocessing off).
+``tools.scoring.mot_eval.evaluate_mot`` (which then runs with its preprocessing off).
 
 Matching is class-aware: a track only matches GT of its own class. This is done
 by shifting each box ``class_id * CLASS_SHIFT_PX`` (1e5 px) along x, so boxes of
@@ -28,10 +28,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from lookahead.tools.mot_eval import evaluate_mot
 from lookahead.tools.scoring.detection import gt_selection
 from lookahead.tools.scoring.io import GTFrame, RunData, TrackFrame
 from lookahead.tools.scoring.matching import MIN_MATCH_SIZE_PX, class_iou, hungarian_match
+from lookahead.tools.scoring.mot_eval import evaluate_mot
 
 CLASS_SHIFT_PX = 1e5
 

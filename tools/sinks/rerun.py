@@ -36,8 +36,8 @@ from lookahead.intent.labels import LABEL_NAMES, RISK_COLOURS, Label, Risk
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.detections import CLASSES
 from lookahead.sim.records import TickRecord
-from lookahead.tools.draw import CLASS_COLOURS
-from lookahead.tools.rundir import OutputError
+from lookahead.tools.sinks.draw import CLASS_COLOURS
+from lookahead.tools.sinks.rundir import OutputError
 
 log = logging.getLogger(__name__)
 

@@ -4,10 +4,10 @@ A run page holds the headline numbers, the expectations, every ``metrics.json``
 section as tables, four matplotlib figures (intent confusion matrix, range
 error vs true range, TTC over time per actor with alerts, per-stage timing)
 and a strip of annotated key frames: the PNGs saved in ``frames/*.png``
-(``tools/demo.py``'s ``KeyFrameSink``, captions from ``frames/key_frames.json``)
+(``tools/sinks/keyframes.py``'s ``KeyFrameSink``, captions from ``frames/key_frames.json``)
 when there are any, else frames read back (OpenCV) from the run's
-``annotated.mp4``; both carry the video's overlay (``tools.video.Overlay``) and
-are chosen by the same rule (``tools.demo.key_frame_reason``: first FCW, first
+``annotated.mp4``; both carry the video's overlay (``tools.sinks.video.Overlay``) and
+are chosen by the same rule (``tools.sinks.keyframes.key_frame_reason``: first FCW, first
 critical alert, first collision, 25/50/75 % of the run; at most
 ``MAX_KEY_FRAMES``). Video frame k is taken to be ``ticks.jsonl`` line k (the
 video holds every rendered frame). Images are inlined as base64 (PNG; frames
@@ -32,9 +32,6 @@ Figure data, from ``ticks.jsonl``:
 
 from __future__ import annotations
 
-import base64
-import html
-import io
 import json
 import logging
 import sys
@@ -44,16 +41,27 @@ from pathlib import Path
 
 import numpy as np
 
+from lookahead.tools.reports.html import (
+    REPORT_FILE,
+    escape,
+    figure,
+    fmt,
+    img,
+    page,
+    png_b64,
+    pyplot,
+    row,
+    table,
+)
+from lookahead.tools.sinks.rundir import NEVER, SUMMARY_FILE
+
 log = logging.getLogger(__name__)
 
-REPORT_FILE = "report.html"
-SUMMARY_FILE = "summary.json"
 TTC_PLOT_MAX_S = 10.0
 MAX_TTC_PANELS = 6
 MAX_KEY_FRAMES = 12
 VIDEO_FILE = "annotated.mp4"
 KEY_FRAME_JPEG_QUALITY = 85
-_NEVER = 1e8  # TTC values at or above this are "never" (written as 1e9)
 _STAGE_ORDER = ("sim", "render", "gt", "detect", "track", "estimate", "intent", "sinks", "tick")
 _LEVEL_COLOURS = {1: "#9aa0a6", 2: "#f4b400", 3: "#ff6d00", 4: "#d50000"}
 _LEVEL_NAMES = {0: "SAFE", 1: "LOW", 2: "MEDIUM", 3: "HIGH", 4: "CRITICAL"}
@@ -66,21 +74,8 @@ class ReportError(ValueError):
 # --------------------------------------------------------------------------- figures
 
 
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
-def _png(fig) -> str:
-    """Base64 PNG of a matplotlib figure (closed afterwards)."""
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100, bbox_inches="tight")
-    _plt().close(fig)
-    return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
 def confusion_figure(confusion: dict) -> str | None:
@@ -88,7 +83,7 @@ def confusion_figure(confusion: dict) -> str | None:
     labels, m = confusion.get("labels") or [], np.asarray(confusion.get("matrix") or [], dtype=float)
     if not labels or m.size == 0:
         return None
-    plt = _plt()
+    plt = pyplot()
     rows = m.sum(axis=1, keepdims=True)
     norm = np.divide(m, rows, out=np.zeros_like(m), where=rows > 0)
     fig, ax = plt.subplots(figsize=(4.8, 4.0))
@@ -103,7 +98,7 @@ def confusion_figure(confusion: dict) -> str | None:
     ax.set_ylabel("ground truth")
     ax.set_title("intent labels (counts; colour = row share)")
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
-    return _png(fig)
+    return png_b64(fig)
 
 
 def range_error_figure(run_dir: Path) -> str | None:
@@ -123,7 +118,7 @@ def range_error_figure(run_dir: Path) -> str | None:
     scored = ((p["vf"][keep] >= est.UNOCCLUDED_MIN_VISIBLE_FRACTION)
               & (p["trunc"][keep] < est.UNOCCLUDED_MAX_TRUNCATION)
               & (r >= est.RANGE_MIN_M) & (r <= est.RANGE_MAX_M))
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     xs = np.linspace(0, max(float(r.max()), 1.0) * 1.05, 50)
     for frac, style in ((0.05, ":"), (0.10, "--")):
@@ -137,7 +132,7 @@ def range_error_figure(run_dir: Path) -> str | None:
     ax.set_title(f"range error vs distance ({len(r)} matched pairs)")
     ax.legend(fontsize=8, loc="best")
     ax.grid(alpha=0.3)
-    return _png(fig)
+    return png_b64(fig)
 
 
 @dataclass
@@ -186,7 +181,7 @@ def _timeline(run_dir: Path, records: list[dict]) -> _Timeline:
         for i, a in enumerate(gt["actor_id"]):
             tl.names[a] = gt["name"][i]
             ttc = gt["ttc"][i]
-            tl.true_ttc[a][f] = np.nan if ttc is None or ttc >= _NEVER else float(ttc)
+            tl.true_ttc[a][f] = np.nan if ttc is None or ttc >= NEVER else float(ttc)
             if gt["label"][i] == int(Label.DANGER):
                 tl.danger[a].add(f)
         tl.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
@@ -200,7 +195,7 @@ def _timeline(run_dir: Path, records: list[dict]) -> _Timeline:
             actor, tid = int(g.actor_id[g_idx]), int(trk.track_id[t_idx])
             tl.owner_votes[tid][actor] += 1
             ttc = float(trk.ttc[t_idx])
-            if not trk.initializing[t_idx] and np.isfinite(ttc) and ttc < _NEVER:
+            if not trk.initializing[t_idx] and np.isfinite(ttc) and ttc < NEVER:
                 tl.pred[actor].append((f, ttc))
     return tl
 
@@ -222,7 +217,7 @@ def ttc_figure(run_dir: Path, records: list[dict]) -> str | None:
     actors = _ttc_actors(tl)
     if not actors or not tl.t:
         return None
-    plt = _plt()
+    plt = pyplot()
     t = np.asarray(tl.t)
     fig, axes = plt.subplots(len(actors), 1, figsize=(9.0, 1.9 * len(actors) + 0.6), sharex=True, squeeze=False)
     for ax, actor in zip(axes[:, 0], actors, strict=True):
@@ -260,7 +255,7 @@ def ttc_figure(run_dir: Path, records: list[dict]) -> str | None:
     axes[-1, 0].set_xlabel("t (s)")
     axes[-1, 0].set_xlim(0, float(t[-1]) + 0.1)
     fig.suptitle(f"time to collision per actor (capped at {TTC_PLOT_MAX_S:.0f} s)", fontsize=11)
-    return _png(fig)
+    return png_b64(fig)
 
 
 def timing_figure(timing: dict) -> str | None:
@@ -268,7 +263,7 @@ def timing_figure(timing: dict) -> str | None:
     stages = [s for s in _STAGE_ORDER if s in timing] + sorted(set(timing) - set(_STAGE_ORDER))
     if not stages:
         return None
-    plt = _plt()
+    plt = pyplot()
     y = np.arange(len(stages))
     med = [timing[s].get("median") or 0.0 for s in stages]
     p95 = [timing[s].get("p95") or 0.0 for s in stages]
@@ -281,88 +276,35 @@ def timing_figure(timing: dict) -> str | None:
     ax.set_title("per-stage timing")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(axis="x", alpha=0.3)
-    return _png(fig)
+    return png_b64(fig)
 
 
 # --------------------------------------------------------------------------- HTML pieces
 
-_CSS = """
-body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:24px auto;max-width:1200px;
-color:#202124;padding:0 16px}
-h1{font-size:24px;margin-bottom:4px}h2{font-size:18px;margin-top:28px;border-bottom:1px solid #dadce0;
-padding-bottom:4px}h3{font-size:15px;margin:14px 0 6px}
-.sub{color:#5f6368;margin-top:0}
-table{border-collapse:collapse;margin:6px 0 12px;font-size:13px}
-th,td{border:1px solid #dadce0;padding:3px 8px;text-align:right}th{background:#f1f3f4}
-td.l,th.l{text-align:left}
-.pass{background:#e6f4ea;color:#137333}.fail{background:#fce8e6;color:#c5221f}
-.cards{display:flex;flex-wrap:wrap;gap:10px;margin:12px 0}
-.card{border:1px solid #dadce0;border-radius:8px;padding:8px 12px;min-width:120px}
-.card .v{font-size:20px;font-weight:600}.card .k{font-size:12px;color:#5f6368}
-.grid{display:flex;flex-wrap:wrap;gap:16px;align-items:flex-start}
-.sec{flex:0 1 auto}
-img.fig{max-width:100%;border:1px solid #eee}
-.frames{display:flex;flex-wrap:wrap;gap:8px}
-.frames figure{margin:0;flex:1 1 360px;max-width:32%}.frames img{width:100%}
-figcaption{font-size:12px;color:#5f6368}
-.muted{color:#9aa0a6}
-"""
 
 
-def _e(x: object) -> str:
-    return html.escape(str(x), quote=True)
 
 
-def _fmt(v: object) -> str:
-    if v is None:
-        return "—"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, float):
-        if abs(v) >= _NEVER:
-            return "never"
-        return f"{v:.0f}" if abs(v) >= 1000 else f"{v:.3g}"
-    if isinstance(v, dict | list):
-        return json.dumps(v, separators=(", ", ": "))
-    return str(v)
 
 
-def _img(b64: str | None, alt: str) -> str:
-    if b64 is None:
-        return f'<p class="muted">{_e(alt)}: no data</p>'
-    return f'<img class="fig" alt="{_e(alt)}" src="data:image/png;base64,{b64}">'
 
 
-def _align(value: object, column: int) -> str:
-    """CSS class: text left, numbers right."""
-    numeric = value is None or (isinstance(value, int | float) and not isinstance(value, bool))
-    return "" if numeric and column > 0 else "l"
 
-
-def _table(header: list[str], rows: list[list[object]], classes: list[str] | None = None) -> str:
-    first = rows[0] if rows else [None] * len(header)
-    head = "".join(f'<th class="{_align(c, i)}">{_e(h)}</th>' for i, (h, c) in enumerate(zip(header, first, strict=True)))
-    body = []
-    for k, row in enumerate(rows):
-        cls = f' class="{classes[k]}"' if classes and classes[k] else ""
-        cells = "".join(f'<td class="{_align(c, i)}">{_e(_fmt(c))}</td>' for i, c in enumerate(row))
-        body.append(f"<tr{cls}>{cells}</tr>")
-    return f"<table><tr>{head}</tr>{''.join(body)}</table>"
 
 
 def _section_tables(name: str, sec: dict) -> str:
     """A key/value table of a section's scalars plus tables of its nested parts."""
     scalars = [[k, v] for k, v in sec.items() if not isinstance(v, dict | list)]
-    out = [f'<div class="sec"><h3>{_e(name)}</h3>', _table(["metric", "value"], scalars) if scalars else ""]
+    out = [f'<div class="sec"><h3>{escape(name)}</h3>', table(["metric", "value"], scalars) if scalars else ""]
     per_class = sec.get("per_class")
     if isinstance(per_class, dict) and per_class:
         cols = list(dict.fromkeys(k for v in per_class.values() if isinstance(v, dict) for k in v))
         rows = [[c, *[(v or {}).get(k) for k in cols]] for c, v in per_class.items()]
-        out.append(_table(["class", *cols], rows))
+        out.append(table(["class", *cols], rows))
     events = sec.get("event_list")
     if isinstance(events, list) and events:
         cols = list(dict.fromkeys(k for e in events for k in e))
-        out.append(_table(cols, [[e.get(k) for k in cols] for e in events]))
+        out.append(table(cols, [[e.get(k) for k in cols] for e in events]))
     out.append("</div>")
     return "".join(out)
 
@@ -381,7 +323,7 @@ def _cards(metrics: dict) -> str:
         ("warning lead time (median s)", dg.get("lead_time_s_median")),
         *_outcome_cards(cl, exp),
     ]
-    cards = "".join(f'<div class="card"><div class="v">{_e(_fmt(v))}</div><div class="k">{_e(k)}</div></div>'
+    cards = "".join(f'<div class="card"><div class="v">{escape(fmt(v))}</div><div class="k">{escape(k)}</div></div>'
                     for k, v in items)
     return f'<div class="cards">{cards}</div>'
 
@@ -392,7 +334,7 @@ def _outcome_cards(cl: dict, exp: list | dict) -> list[tuple[str, object]]:
         passed = f"{exp.get('total', 0) - exp.get('failed', 0)} / {exp.get('total', 0)}" if exp else None
         return [("runs with a collision", f"{cl.get('collisions')} / {cl.get('runs')}"),
                 ("max impact speed (m/s)", cl.get("impact_speed_max")), ("expectations passed", passed)]
-    coll = (f"yes, {_fmt(cl.get('impact_speed'))} m/s" if cl.get("collision") else "no") if cl else None
+    coll = (f"yes, {fmt(cl.get('impact_speed'))} m/s" if cl.get("collision") else "no") if cl else None
     passed = f"{sum(bool(x.get('passed')) for x in exp)} / {len(exp)}" if exp else None
     return [("collision", coll), ("expectations passed", passed)]
 
@@ -400,20 +342,16 @@ def _outcome_cards(cl: dict, exp: list | dict) -> list[tuple[str, object]]:
 def _expectations(exp: list[dict]) -> str:
     if not exp:
         return '<p class="muted">the scenario has no expectations</p>'
-    rows = [["PASS" if x["passed"] else "FAIL", _fmt(x["expectation"]), x.get("detail", "")] for x in exp]
+    rows = [["PASS" if x["passed"] else "FAIL", fmt(x["expectation"]), x.get("detail", "")] for x in exp]
     classes = ["pass" if x["passed"] else "fail" for x in exp]
-    return _table(["result", "expectation", "detail"], rows, classes)
+    return table(["result", "expectation", "detail"], rows, classes)
 
 
-def _figure(alt: str, mime: str, data: bytes, caption: str) -> str:
-    b64 = base64.b64encode(data).decode("ascii")
-    return (f'<figure><img alt="{_e(alt)}" src="data:{mime};base64,{b64}">'
-            f"<figcaption>{_e(caption)}</figcaption></figure>")
 
 
 def _saved_key_frames(run_dir: Path, records: list[dict]) -> list[str]:
     """Figures of the PNGs in ``frames/`` (captions: file, t, and why from ``key_frames.json``)."""
-    from lookahead.tools.demo import KEY_FRAMES_INDEX
+    from lookahead.tools.sinks.keyframes import KEY_FRAMES_INDEX
 
     paths = sorted((run_dir / "frames").glob("*.png"))[:MAX_KEY_FRAMES]
     if not paths:
@@ -430,7 +368,7 @@ def _saved_key_frames(run_dir: Path, records: list[dict]) -> list[str]:
         cap = p.name + (f" — t = {times[int(digits)]:.2f} s" if digits and int(digits) in times else "")
         if isinstance(reasons, dict) and reasons.get(p.name):
             cap += f" — {reasons[p.name]}"
-        figs.append(_figure(p.name, "image/png", p.read_bytes(), cap))
+        figs.append(figure(p.name, "image/png", p.read_bytes(), cap))
     return figs
 
 
@@ -439,7 +377,7 @@ def video_key_frames(run_dir: Path, records: list[dict]) -> list[tuple[int, str,
     with OpenCV; [] when there is no video or it cannot be read (logged)."""
     import cv2
 
-    from lookahead.tools.demo import key_frame_reason
+    from lookahead.tools.sinks.keyframes import key_frame_reason
 
     path = run_dir / VIDEO_FILE
     if not path.is_file():
@@ -478,7 +416,7 @@ def _key_frames(run_dir: Path, records: list[dict]) -> str:
     figs = _saved_key_frames(run_dir, records)
     if not figs:
         times = {int(r.get("frame", k)): r["t"] for k, r in enumerate(records)}
-        figs = [_figure(f"{VIDEO_FILE} frame {f}", "image/jpeg", data,
+        figs = [figure(f"{VIDEO_FILE} frame {f}", "image/jpeg", data,
                         f"{VIDEO_FILE} frame {f}" + (f" — t = {times[f]:.2f} s" if f in times else "") + f" — {why}")
                 for f, why, data in video_key_frames(run_dir, records)]
     if not figs:
@@ -490,20 +428,17 @@ def _key_frames(run_dir: Path, records: list[dict]) -> str:
 def _timing_table(timing: dict) -> str:
     stages = [s for s in _STAGE_ORDER if s in timing] + sorted(set(timing) - set(_STAGE_ORDER))
     rows = [[s, timing[s].get("median"), timing[s].get("p95")] for s in stages]
-    return _table(["stage", "median ms", "p95 ms"], rows) if rows else ""
+    return table(["stage", "median ms", "p95 ms"], rows) if rows else ""
 
 
-def _page(title: str, body: str) -> str:
-    return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{_e(title)}</title>'
-            f"<style>{_CSS}</style></head><body>{body}</body></html>\n")
 
 
 # --------------------------------------------------------------------------- run and suite pages
 
 
 def _ensure_metrics(run_dir: Path) -> dict:
-    from lookahead.tools.score import score_run
     from lookahead.tools.scoring.io import read_metrics
+    from lookahead.tools.scoring.run import score_run
 
     if not (run_dir / "metrics.json").is_file():
         log.info("%s: no metrics.json, scoring first", run_dir)
@@ -522,30 +457,30 @@ def build_run_report(run_dir: Path) -> Path:
     summ = run.get("summary") or {}
     name = sc.get("name", run_dir.name)
     sub = (f"seed {run.get('seed', '—')} · {summ.get('frames', len(records))} frames · "
-           f"t end {_fmt(summ.get('t_end'))} s · renderer {run.get('renderer') or 'none'} · "
+           f"t end {fmt(summ.get('t_end'))} s · renderer {run.get('renderer') or 'none'} · "
            f"config {run.get('config_hash', '—')}")
     order = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "timing")
     sections = [k for k in order if isinstance(metrics.get(k), dict) and k != "timing"]
     sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order]
     body = [
-        f"<h1>{_e(name)}</h1>",
-        f'<p class="sub">{_e(sc.get("description", ""))}</p><p class="sub">{_e(sub)}</p>',
+        f"<h1>{escape(name)}</h1>",
+        f'<p class="sub">{escape(sc.get("description", ""))}</p><p class="sub">{escape(sub)}</p>',
         _cards(metrics),
         "<h2>Expectations</h2>", _expectations(metrics.get("expectations") or []),
-        "<h2>Time to collision</h2>", _img(ttc_figure(run_dir, records), "TTC over time"),
+        "<h2>Time to collision</h2>", img(ttc_figure(run_dir, records), "TTC over time"),
         "<h2>Intent</h2>", '<div class="grid">',
-        _img(confusion_figure((metrics.get("intent") or {}).get("confusion") or {}), "intent confusion matrix"),
+        img(confusion_figure((metrics.get("intent") or {}).get("confusion") or {}), "intent confusion matrix"),
         "</div>",
-        "<h2>Range estimation</h2>", _img(range_error_figure(run_dir), "range error vs distance"),
+        "<h2>Range estimation</h2>", img(range_error_figure(run_dir), "range error vs distance"),
         "<h2>Timing</h2>", '<div class="grid">',
-        _img(timing_figure(metrics.get("timing") or {}), "per-stage timing"),
+        img(timing_figure(metrics.get("timing") or {}), "per-stage timing"),
         _timing_table(metrics.get("timing") or {}),
         "</div>",
         "<h2>Key frames</h2>", _key_frames(run_dir, records),
         "<h2>Metrics</h2>", '<div class="grid">', *[_section_tables(k, metrics[k]) for k in sections], "</div>",
     ]
     out = run_dir / REPORT_FILE
-    out.write_text(_page(f"lookahead report: {name}", "".join(body)), encoding="utf-8")
+    out.write_text(page(f"lookahead report: {name}", "".join(body)), encoding="utf-8")
     log.info("report written: %s", out)
     return out
 
@@ -565,7 +500,7 @@ def _suite_cells(metrics: dict) -> list[tuple[object, str]]:
     cells: list[tuple[object, str]] = [(metrics.get(s, {}).get(k), "") for _, s, k in _SUITE_COLS]
     cl = metrics.get("closed_loop") or {}
     if cl.get("collision"):
-        cells.append((f"{cl.get('collided_with')} at {_fmt(cl.get('impact_speed'))} m/s", "fail l"))
+        cells.append((f"{cl.get('collided_with')} at {fmt(cl.get('impact_speed'))} m/s", "fail l"))
     else:
         cells.append(("no", "pass l"))
     exp = metrics.get("expectations") or []
@@ -586,10 +521,6 @@ def _suite_totals_cells(totals: dict) -> list[tuple[object, str]]:
     return cells
 
 
-def _row(first: str, cells: list[tuple[object, str]], last: str = "", style: str = "") -> str:
-    """A table row: raw HTML first and last cells around escaped, formatted values."""
-    tds = "".join(f'<td class="{cls}">{_e(_fmt(v))}</td>' for v, cls in cells)
-    return f'<tr{style}><td class="l">{first}</td>{tds}<td class="l">{last}</td></tr>'
 
 
 def build_suite_report(suite_dir: Path) -> Path:
@@ -605,26 +536,26 @@ def build_suite_report(suite_dir: Path) -> Path:
             log.warning("%s: run directory missing, skipped", run_dir)
             continue
         build_run_report(run_dir)
-        href = _e(f"{rel}/{REPORT_FILE}")
+        href = escape(f"{rel}/{REPORT_FILE}")
         cells = _suite_cells(_ensure_metrics(run_dir))
-        rows.append(_row(f'<a href="{href}">{_e(name)}</a>', cells, f'<a href="{href}">report</a>'))
+        rows.append(row(f'<a href="{href}">{escape(name)}</a>', cells, f'<a href="{href}">report</a>'))
     totals = summary.get("totals") or {}
     if totals:
-        rows.append(_row("TOTAL", _suite_totals_cells(totals), style=' style="font-weight:600"'))
+        rows.append(row("TOTAL", _suite_totals_cells(totals), style=' style="font-weight:600"'))
     header = ["scenario", *[c[0] for c in _SUITE_COLS], "collision", "expectations", "report"]
-    head = "".join(f'<th class="{"l" if h in ("scenario", "report") else ""}">{_e(h)}</th>' for h in header)
+    head = "".join(f'<th class="{"l" if h in ("scenario", "report") else ""}">{escape(h)}</th>' for h in header)
     title = f"suite {summary.get('suite', suite_dir.name)}"
-    body = (f"<h1>{_e(title)}</h1><p class=\"sub\">{len(rows) - bool(totals)} scenarios · rendered: "
-            f"{_e(_fmt(summary.get('render')))} · red: a collision or a failed expectation; "
+    body = (f"<h1>{escape(title)}</h1><p class=\"sub\">{len(rows) - bool(totals)} scenarios · rendered: "
+            f"{escape(fmt(summary.get('render')))} · red: a collision or a failed expectation; "
             "click a scenario for its report</p>"
             f'<table class="suite"><tr>{head}</tr>{"".join(rows)}</table>')
     if totals:
         body += "<h2>Suite totals</h2>" + _cards(totals)
-        body += '<div class="grid">' + _img(
+        body += '<div class="grid">' + img(
             confusion_figure((totals.get("intent") or {}).get("confusion") or {}), "suite intent confusion matrix"
-        ) + _img(timing_figure(totals.get("timing") or {}), "suite per-stage timing") + "</div>"
+        ) + img(timing_figure(totals.get("timing") or {}), "suite per-stage timing") + "</div>"
     out = suite_dir / REPORT_FILE
-    out.write_text(_page(f"lookahead {title}", body), encoding="utf-8")
+    out.write_text(page(f"lookahead {title}", body), encoding="utf-8")
     log.info("suite report written: %s", out)
     return out
 
@@ -638,7 +569,7 @@ def build_report(path: Path) -> Path:
     if (path / "ticks.jsonl").is_file():
         return build_run_report(path)
     if (path / SUMMARY_FILE).is_file():
-        from lookahead.tools.sweep_report import build_sweep_report, is_sweep_dir
+        from lookahead.tools.reports.sweep import build_sweep_report, is_sweep_dir
 
         return build_sweep_report(path) if is_sweep_dir(path) else build_suite_report(path)
     raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")

@@ -37,7 +37,7 @@ draws unchanged.
 variants (``OUT/sweep.sqlite``, one run per variant), ``OUT/summary.json``
 (per-variant parameters, status, key metrics; ``totals`` pooled from the
 variants' metrics by ``sweep_totals``) and ``OUT/report.html``
-(``tools.sweep_report``). A variant is done when its ``run.json`` says
+(``tools.reports.sweep``). A variant is done when its ``run.json`` says
 ``complete: true`` with the variant's ``config_hash`` and its ``metrics.json`` exists; a re-run skips done variants and re-runs the rest
 (their directories and store rows are removed first). A variant that raises is
 ``failed`` with a one-line error and does not stop the others.
@@ -551,15 +551,15 @@ def one_line(exc: BaseException) -> str:
 def warm_worker() -> None:
     """Pool initializer: import the loop and the scorer before the first variant arrives."""
     import lookahead.sim.runner  # noqa: F401
-    import lookahead.tools.score  # noqa: F401
+    import lookahead.tools.runs.suite  # noqa: F401
     import lookahead.tools.scoring.intent  # noqa: F401
-    import lookahead.tools.store  # noqa: F401
-    import lookahead.tools.suite  # noqa: F401
+    import lookahead.tools.scoring.run  # noqa: F401
+    import lookahead.tools.sinks.store  # noqa: F401
 
 
 def run_variant(vid: str, scenario_path: str, run_dir: str, render: bool = False, db: str | None = None) -> dict:
     """Run and score one variant (a worker's job); never raises: failures come back as data."""
-    from lookahead.tools.suite import run_one
+    from lookahead.tools.runs.suite import run_one
 
     t0, c0 = time.perf_counter(), time.process_time()
     result: dict[str, Any] = {"id": vid, "ok": True}
@@ -579,7 +579,7 @@ def _failed(vid: str, exc: BaseException) -> dict:
 
 def is_complete(run_dir: Path, scenario: Scenario) -> bool:
     """``run.json`` complete for this very scenario (config hash) and ``metrics.json`` written."""
-    from lookahead.tools.rundir import config_hash
+    from lookahead.tools.sinks.rundir import config_hash
 
     try:
         run = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
@@ -591,7 +591,7 @@ def is_complete(run_dir: Path, scenario: Scenario) -> bool:
 
 def forget_runs(db: Path, run_dirs: list[Path]) -> int:
     """Delete the store's rows of runs written into ``run_dirs`` (stale or killed runs)."""
-    from lookahead.tools.store import open_db
+    from lookahead.tools.sinks.store import open_db
 
     if not run_dirs:
         return 0
@@ -715,8 +715,8 @@ def run_sweep(
     process when ``workers`` <= 1). ``progress(result)`` is called once per variant run.
     ``variants`` overrides the sweep file's (a subset, e.g. in benchmarks).
     """
-    from lookahead.tools.rundir import prepare_dir
-    from lookahead.tools.store import open_db
+    from lookahead.tools.sinks.rundir import prepare_dir
+    from lookahead.tools.sinks.store import open_db
 
     sweep_path = Path(sweep_path)
     spec, base_path, expanded = load_sweep(sweep_path)
@@ -764,7 +764,7 @@ def run_sweep(
 
     (out / SUMMARY_FILE).write_text(json.dumps(jsonable(summary), indent=2) + "\n")
     if report:
-        from lookahead.tools.sweep_report import build_sweep_report
+        from lookahead.tools.reports.sweep import build_sweep_report
 
         build_sweep_report(out)
     return summary

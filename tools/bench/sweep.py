@@ -1,7 +1,7 @@
 """``lookahead bench sweep``: one sweep on 1 worker, then on 2 workers, in one process.
 
 The sweep (default ``scenarios/sweeps/aeb_stationary_car.yaml``, 16 variants,
-rendering off, gt detector) runs through ``tools.sweep.run_sweep`` exactly as
+rendering off, gt detector) runs through ``tools.runs.sweep.run_sweep`` exactly as
 ``lookahead sweep`` does (run directories, scoring, one SQLite store,
 ``summary.json`` with totals; no HTML report), each time into a fresh directory.
 Both pools are created once, before timing, and warmed: their workers import the
@@ -25,8 +25,8 @@ import time
 from pathlib import Path
 
 from lookahead.sim.catalogue import SCENARIOS
-from lookahead.tools.bench import case, machine
-from lookahead.tools.sweep import load_sweep, new_pool, run_sweep
+from lookahead.tools.bench.common import case, machine
+from lookahead.tools.runs.sweep import load_sweep, new_pool, run_sweep
 
 WARM_SCENARIO = SCENARIOS / "stationary_car.yaml"
 

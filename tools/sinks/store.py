@@ -292,7 +292,7 @@ class SqliteStore:
 
     # --- sink protocol -------------------------------------------------------------------
     def on_start(self, info: dict) -> None:
-        from lookahead.tools.rundir import config_hash, versions
+        from lookahead.tools.sinks.rundir import config_hash, versions
 
         sc = self.scenario
         row = (

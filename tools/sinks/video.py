@@ -44,7 +44,7 @@ from lookahead.intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, Label, Risk, ri
 from lookahead.perception.detections import CLASSES
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.records import TickRecord
-from lookahead.tools.rundir import OutputError
+from lookahead.tools.sinks.rundir import OutputError
 
 log = logging.getLogger(__name__)
 
@@ -332,7 +332,7 @@ class _Style:
 class Overlay:
     """The annotation drawn on each frame (see the module doc) and the state it carries from
     frame to frame (trails, active alerts, a recent collision). ``VideoSink`` is one; the demo's
-    key frames (``tools.demo.KeyFrameSink``) and the report draw with one too.
+    key frames (``tools.sinks.keyframes.KeyFrameSink``) and the report draw with one too.
 
     Feed every frame in order: ``annotate`` (draw) or ``observe`` (state only, no drawing).
     """

@@ -50,26 +50,26 @@ def run_one(
     """
     from lookahead.sim.runner import Runner
     from lookahead.sim.scenario import load_scenario, with_detector
-    from lookahead.tools.rundir import RunDirWriter
-    from lookahead.tools.score import score_run
+    from lookahead.tools.scoring.run import score_run
+    from lookahead.tools.sinks.rundir import RunDirWriter
 
     sc = with_detector(load_scenario(scenario_path), *detector)
     run_dir = Path(out_dir)
     sinks: list = [RunDirWriter(run_dir, sc, scenario_path)]
     if db is not None:
-        from lookahead.tools.store import SqliteStore
+        from lookahead.tools.sinks.store import SqliteStore
 
         sinks.append(SqliteStore(Path(db), sc, run_dir=run_dir, source=scenario_path))
     if "keyframes" in outputs:
-        from lookahead.tools.demo import KeyFrameSink
+        from lookahead.tools.sinks.keyframes import KeyFrameSink
 
         sinks.append(KeyFrameSink(run_dir / "frames", int(sc.duration * sc.camera.rate)))
     if "video" in outputs:
-        from lookahead.tools.video import VideoSink
+        from lookahead.tools.sinks.video import VideoSink
 
         sinks.append(VideoSink(run_dir / "annotated.mp4", fps=sc.camera.rate))
     if "rerun" in outputs:
-        from lookahead.tools.rerun_sink import RerunSink
+        from lookahead.tools.sinks.rerun import RerunSink
 
         sinks.append(RerunSink(run_dir / "run.rrd"))
     try:
@@ -96,8 +96,8 @@ def run_suite(
     from multiprocessing import get_context
 
     from lookahead.sim.scenario import load_scenario
-    from lookahead.tools.rundir import prepare_dir
-    from lookahead.tools.score import score_suite
+    from lookahead.tools.scoring.run import score_suite
+    from lookahead.tools.sinks.rundir import prepare_dir
 
     name, paths = load_suite(suite_path)
     from lookahead.sim.runner import build_detector
@@ -112,7 +112,7 @@ def run_suite(
             checked.add(key)
     prepare_dir(out)
     if db is not None:  # fail before running anything; creates the schema once
-        from lookahead.tools.store import open_db
+        from lookahead.tools.sinks.store import open_db
 
         open_db(db).close()
     outputs = outputs or {}

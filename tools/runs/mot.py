@@ -13,7 +13,7 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
-from lookahead.tools.mot_eval import evaluate_mot, resolve_frame_rate, run_tracker_on_mot
+from lookahead.tools.scoring.mot_eval import evaluate_mot, resolve_frame_rate, run_tracker_on_mot
 
 _FORMATS = ("table", "json")
 _TABLE_KEYS = (

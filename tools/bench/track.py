@@ -3,7 +3,7 @@
 Both trackers run in one process on identical per-frame detections:
 
 - MOT15 (``tests/data/mot15``): public ACF detections, scores normalised per
-  sequence (``tools.mot_eval.normalise_scores``); ours with ``mot_tracker_config()``.
+  sequence (``tools.scoring.mot_eval.normalise_scores``); ours with ``mot_tracker_config()``.
 - simulated: GT-noise detections of scenarios run without rendering
   (``Runner(..., render=False)``); ours with the scenario's ``TrackerConfig``
   (the defaults for the shipped scenarios). Ground truth and scoring are those
@@ -37,7 +37,7 @@ frame and repeat, plus ``fps``) and ``<tracker>/<sequence>``; ``ratios``;
 ``evaluate_mot``, first repeat -- both trackers are deterministic);
 ``accuracy_pooled`` {tracker: {mot15 | sim: mota, idf1}} over summed counts;
 ``sort_reference`` {``accuracy`` {sequence: ...}, ``accuracy_pooled`` {mot15: ...}}: the
-SORT reference tracker (``tools.sort_reference.Sort()``, its defaults, fed every
+SORT reference tracker (``tools.bench.sort_reference.Sort()``, its defaults, fed every
 detection, untimed) on the MOT15 sequences, the baseline ours must match or beat;
 ``sequences`` (MOT15 frame rate and length from each ``seqinfo.ini``); ``inputs`` {tracker: {sequence: frames, detections fed}};
 ``repeats``; ``deepsort_config``.
@@ -60,8 +60,8 @@ from lookahead.perception.detections import Detections
 from lookahead.perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections
 from lookahead.perception.tracker import Tracker, TrackerConfig
 from lookahead.sim.catalogue import SCENARIOS
-from lookahead.tools.bench import case, machine
-from lookahead.tools.mot_eval import (
+from lookahead.tools.bench.common import case, machine
+from lookahead.tools.scoring.mot_eval import (
     evaluate_mot,
     mot_tracker_config,
     normalise_scores,
@@ -70,7 +70,7 @@ from lookahead.tools.mot_eval import (
 
 log = logging.getLogger(__name__)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]  # the checkout: the MOT15 test data is not packaged
 MOT15_DIR = ROOT / "tests" / "data" / "mot15"
 MOT15_SEQUENCES = ("TUD-Campus", "TUD-Stadtmitte", "KITTI-17", "KITTI-13")
 SIM_SCENARIOS = tuple(SCENARIOS / f"{n}.yaml" for n in ("highway_traffic", "urban_mix", "cut_in"))
@@ -119,8 +119,8 @@ def mot15_sequence(name: str, data_dir: Path = MOT15_DIR) -> TrackSequence:
 
 
 def sort_outputs(seq: TrackSequence) -> list[FrameOut]:
-    """The SORT reference (``tools.sort_reference.Sort()``, defaults) over the sequence, untimed."""
-    from lookahead.tools.sort_reference import Sort
+    """The SORT reference (``tools.bench.sort_reference.Sort()``, defaults) over the sequence, untimed."""
+    from lookahead.tools.bench.sort_reference import Sort
 
     sort = Sort()
     outs = []
@@ -396,10 +396,10 @@ def _deepsort_version() -> str | None:
 
 
 def print_track_bench(result: dict, console) -> None:
-    """Timing cases and ratio (``tools.bench.print_bench``), then MOTA/IDF1 per sequence."""
+    """Timing cases and ratio (``tools.bench.common.print_bench``), then MOTA/IDF1 per sequence."""
     from rich.table import Table
 
-    from lookahead.tools.bench import print_bench
+    from lookahead.tools.bench.common import print_bench
 
     print_bench(result, console)
     for name in TRACKERS:

@@ -15,14 +15,14 @@ from pathlib import Path
 from lookahead.sim.records import RecordCollector
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.bench import case, machine
+from lookahead.tools.bench.common import case, machine
 
 
 def _all_sinks(scenario, out: Path) -> list:
-    from lookahead.tools.rerun_sink import RerunSink
-    from lookahead.tools.rundir import RunDirWriter
-    from lookahead.tools.store import SqliteStore
-    from lookahead.tools.video import VideoSink
+    from lookahead.tools.sinks.rerun import RerunSink
+    from lookahead.tools.sinks.rundir import RunDirWriter
+    from lookahead.tools.sinks.store import SqliteStore
+    from lookahead.tools.sinks.video import VideoSink
 
     return [
         RunDirWriter(out, scenario),

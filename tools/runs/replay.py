@@ -60,7 +60,7 @@ from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.frame import EgoOdometry, Frame
 from lookahead.sim.records import jsonable
 from lookahead.sim.scenario import Scenario
-from lookahead.tools.rundir import OutputError, prepare_dir
+from lookahead.tools.sinks.rundir import OutputError, prepare_dir
 
 log = logging.getLogger(__name__)
 
@@ -88,12 +88,12 @@ class Perturber:
     """Applies a ``Perturbation`` frame by frame (state: the AR(1) noise per source object)."""
 
     def __init__(self, config: Perturbation, run_seed: int, width: int, height: int) -> None:
-        from lookahead.perception.detectors.gt_detector import _CONF_COUNT, _CONF_TABLE
+        from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
 
         self.config, self.width, self.height = config, width, height
         self.rng = np.random.default_rng([config.seed, run_seed, 0x5EA1])
         self._noise: dict[int, np.ndarray] = {}  # source id -> last (4,) unit noise
-        self._table, self._count = _CONF_TABLE, _CONF_COUNT
+        self._table, self._count = CONFUSION_TABLE, CONFUSION_COUNT
 
     def __call__(self, dets: Detections) -> Detections:
         cfg, rng = self.config, self.rng
@@ -266,7 +266,7 @@ def replay_run(
     (out_dir / "metrics.json").unlink(missing_ok=True)
     result = {"name": scenario.name, "dir": str(out_dir), "summary": run.get("summary") or {}, "replay": replay}
     if score:
-        from lookahead.tools.score import score_run
+        from lookahead.tools.scoring.run import score_run
 
         result["metrics"] = score_run(out_dir)
     return result
@@ -301,8 +301,8 @@ def replay_suite(
     progress=None,
 ) -> dict:
     """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like ``lookahead suite``."""
-    from lookahead.tools.score import score_suite
     from lookahead.tools.scoring.intent import intent_totals
+    from lookahead.tools.scoring.run import score_suite
 
     suite_dir, out = Path(suite_dir), Path(out)
     src = json.loads((suite_dir / "summary.json").read_text(encoding="utf-8"))
@@ -333,7 +333,7 @@ def replay_command(source: Path, out: Path, perturb: Perturbation, config: Path 
     """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides."""
     overrides = None
     if config is not None:
-        from lookahead.tools.suite import read_yaml
+        from lookahead.tools.runs.suite import read_yaml
 
         overrides = read_yaml(config, "replay config")
         if not isinstance(overrides, dict):

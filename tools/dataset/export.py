@@ -63,11 +63,11 @@ from lookahead.perception.detections import CLASSES
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.records import Sink, TickRecord
 from lookahead.sim.scenario import Scenario, ScenarioError, load_scenario
-from lookahead.tools.rundir import OutputError, prepare_dir
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
+from lookahead.tools.sinks.rundir import OutputError, prepare_dir
 
 if TYPE_CHECKING:
-    from lookahead.tools.scene_gen import GeneratorSpec
+    from lookahead.tools.dataset.scene_gen import GeneratorSpec
 
 log = logging.getLogger(__name__)
 
@@ -364,7 +364,7 @@ def _export_chunk(spec: GeneratorSpec, seeds: list[int], weather: str | None, fm
     Returns (sequence summaries, COCO images, COCO annotations) -- the COCO lists
     (empty for other formats) are merged and renumbered by the caller.
     """
-    from lookahead.tools.scene_gen import generate_scenario
+    from lookahead.tools.dataset.scene_gen import generate_scenario
 
     scenarios = [generate_scenario(spec, s, weather) for s in seeds]
     writer = make_writer(fmt, Path(out), every)
@@ -395,7 +395,7 @@ def export_generated(
     weather: str | None = None, workers: int = 1, chunk: int = 8, progress=None,
     seeds: tuple[int, int] | None = None, camera: tuple[int, int] | None = None,
 ) -> dict:
-    """Export the scenes of a generator file (``tools.scene_gen``), one dataset per split in
+    """Export the scenes of a generator file (``tools.dataset.scene_gen``), one dataset per split in
     ``out/<split>``; ``weather`` forces one weather kind on every scene (same scenes).
     ``seeds`` [first, last) replaces the seed range of the one split exported (more scenes
     of it, e.g. a second training set); it must not overlap another split's range.
@@ -408,7 +408,7 @@ def export_generated(
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
-    from lookahead.tools.scene_gen import generate_scenario, load_generator, split_seeds
+    from lookahead.tools.dataset.scene_gen import generate_scenario, load_generator, split_seeds
 
     if every < 1:
         raise ValueError(f"--every: expected an integer >= 1, got {every}")
@@ -470,7 +470,7 @@ def with_split_seeds(spec: GeneratorSpec, splits: Sequence[str], seeds: tuple[in
     """``spec`` with the seed range of the single split in ``splits`` set to ``seeds``
     [first, last); ValueError (naming the file) when that is not one split, or the range is
     empty or overlaps another split's."""
-    from lookahead.tools.scene_gen import SplitSpec, overlapping_split, split_seeds
+    from lookahead.tools.dataset.scene_gen import SplitSpec, overlapping_split, split_seeds
 
     if len(splits) != 1:
         raise ValueError(f"--seeds: replaces the range of one split, give exactly one --split (got {len(splits)})")
@@ -492,7 +492,7 @@ def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
     camera draw (field of view, mount) unchanged; ValueError when out of range."""
     from pydantic import ValidationError
 
-    from lookahead.tools.scene_gen import CameraRandom
+    from lookahead.tools.dataset.scene_gen import CameraRandom
 
     w, h = size
     try:
@@ -505,7 +505,7 @@ def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
 
 def load_sources(source: Path) -> list[Scenario]:
     """The scenarios of a scenario YAML or of a suite YAML (a mapping with ``scenarios``)."""
-    from lookahead.tools.suite import is_suite, load_suite, read_yaml
+    from lookahead.tools.runs.suite import is_suite, load_suite, read_yaml
 
     if is_suite(read_yaml(source, "scenario or suite")):
         _, paths = load_suite(source)
@@ -527,11 +527,11 @@ def export_command(
 ) -> int:
     """CLI body of ``lookahead export-dataset``: 0, or 2 with one ``error:`` line.
 
-    ``source`` may be a scenario, a suite or a generator file (``tools.scene_gen``);
+    ``source`` may be a scenario, a suite or a generator file (``tools.dataset.scene_gen``);
     ``splits``, ``weather``, ``workers``, ``seeds`` and ``camera`` apply to generator files only.
     """
-    from lookahead.tools.scene_gen import is_generator
-    from lookahead.tools.suite import read_yaml
+    from lookahead.tools.dataset.scene_gen import is_generator
+    from lookahead.tools.runs.suite import read_yaml
 
     try:
         if fmt not in FORMATS:
@@ -558,6 +558,6 @@ def export_command(
 if __name__ == "__main__":
     logging.basicConfig(level=logging.INFO)
     if len(sys.argv) != 5:
-        print("usage: python -m tools.export SCENARIO|SUITE FORMAT EVERY OUT", file=sys.stderr)
+        print("usage: python -m tools.dataset.export SCENARIO|SUITE FORMAT EVERY OUT", file=sys.stderr)
         sys.exit(2)
     sys.exit(export_command(Path(sys.argv[1]), sys.argv[2], int(sys.argv[3]), Path(sys.argv[4])))

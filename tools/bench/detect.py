@@ -24,7 +24,7 @@ from lookahead.perception.detectors.windows import DEFAULT_WINDOWS
 from lookahead.sim.catalogue import DEFAULT_MODEL, SCENARIOS
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import DetectorSpec, load_scenario
-from lookahead.tools.bench import case, machine
+from lookahead.tools.bench.common import case, machine
 
 
 def render_frames(scenario_path: Path, n: int, size: tuple[int, int] | None = None) -> list[np.ndarray]:

@@ -17,12 +17,12 @@ from lookahead.sim.catalogue import SCENARIOS
 from lookahead.sim.records import RecordCollector
 from lookahead.sim.runner import STAGES, Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.bench import bench_sim, case, machine
-from lookahead.tools.bench_detect import bench_detect
-from lookahead.tools.bench_env import bench_env
-from lookahead.tools.bench_sinks import bench_sinks
-from lookahead.tools.bench_sweep import bench_sweep
-from lookahead.tools.bench_track import bench_track
+from lookahead.tools.bench.common import bench_sim, case, machine
+from lookahead.tools.bench.detect import bench_detect
+from lookahead.tools.bench.env import bench_env
+from lookahead.tools.bench.sinks import bench_sinks
+from lookahead.tools.bench.sweep import bench_sweep
+from lookahead.tools.bench.track import bench_track
 
 
 def bench_loop(scenario_path: Path) -> dict:

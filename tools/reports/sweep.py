@@ -10,7 +10,7 @@ else with at most ``MAX_SERIES`` distinct values), and each series' line joins i
 mean per x value (solid), or, for more than ``MAX_LINE_VALUES`` distinct values
 (random samples), its mean per bin of ``TREND_BINS`` equal-width bins (dashed).
 The figures are also written as ``plots/<x>.png``. Same self-contained style and
-helpers as ``tools.report``.
+helpers as ``tools.reports.report``.
 """
 
 from __future__ import annotations
@@ -23,17 +23,8 @@ import re
 from pathlib import Path
 from typing import Any
 
-from lookahead.tools.report import (
-    REPORT_FILE,
-    SUMMARY_FILE,
-    _e,
-    _fmt,
-    _img,
-    _page,
-    _plt,
-    _png,
-    _row,
-)
+from lookahead.tools.reports.html import REPORT_FILE, escape, fmt, img, page, png_b64, pyplot, row
+from lookahead.tools.sinks.rundir import NEVER, SUMMARY_FILE
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +40,6 @@ MAX_SERIES = 6
 MAX_LINE_VALUES = 8  # more distinct x values than this: a binned trend (dashed) instead
 TREND_BINS = 5
 _COLOURS = ("#1a73e8", "#d93025", "#188038", "#f29900", "#a142f4", "#5f6368")
-_NEVER = 1e8
 
 
 def is_sweep_dir(path: Path) -> bool:
@@ -63,7 +53,7 @@ def is_sweep_dir(path: Path) -> bool:
 def _num(v: Any) -> float | None:
     if isinstance(v, bool):
         return float(v)
-    if isinstance(v, int | float) and math.isfinite(v) and abs(v) < _NEVER:
+    if isinstance(v, int | float) and math.isfinite(v) and abs(v) < NEVER:
         return float(v)
     return None
 
@@ -96,7 +86,7 @@ def default_split(params: list[str], done: list[dict], x: str) -> str | None:
 def _label(value: Any) -> str:
     if isinstance(value, bool):
         return "on" if value else "off"
-    return _fmt(value)
+    return fmt(value)
 
 
 def _trend(pts: list[tuple[float, float]]) -> tuple[list[float], list[float]]:
@@ -117,7 +107,7 @@ def _trend(pts: list[tuple[float, float]]) -> tuple[list[float], list[float]]:
 
 def metric_figure(done: list[dict], x: str, metrics: list[str], split: str | None):
     """Matplotlib figure: one panel per metric vs parameter ``x``, series by ``split``."""
-    plt = _plt()
+    plt = pyplot()
     cols = 2 if len(metrics) in (2, 4) else min(3, len(metrics))
     rows = math.ceil(len(metrics) / cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 3.4 * rows), squeeze=False)
@@ -180,14 +170,14 @@ def build_sweep_report(sweep_dir: Path) -> Path:
     for x in xs:
         pts = [v for v in done if _num(v["params"].get(x)) is not None]
         if not pts or not metrics:
-            figs.append(_img(None, f"metrics vs {x}"))
+            figs.append(img(None, f"metrics vs {x}"))
             continue
         split = rep.get("split") if rep.get("split") in params and rep.get("split") != x else None
         split = split or default_split(params, pts, x)
-        b64 = _png(metric_figure(pts, x, metrics, split))
+        b64 = png_b64(metric_figure(pts, x, metrics, split))
         plots.mkdir(exist_ok=True)
         (plots / f"{_safe(x)}.png").write_bytes(base64.b64decode(b64))
-        figs.append(_img(b64, f"metrics vs {x}"))
+        figs.append(img(b64, f"metrics vs {x}"))
 
     counts = summary.get("counts") or {}
     cl = (summary.get("totals") or {}).get("closed_loop") or {}
@@ -195,13 +185,13 @@ def build_sweep_report(sweep_dir: Path) -> Path:
              ("ran this time", counts.get("ran")), ("skipped (already done)", counts.get("skipped")),
              ("runs with a collision", f"{cl.get('collisions', '—')} / {cl.get('runs', '—')}"),
              ("max impact speed (m/s)", cl.get("impact_speed_max"))]
-    card_html = "".join(f'<div class="card"><div class="v">{_e(_fmt(v))}</div><div class="k">{_e(k)}</div></div>'
+    card_html = "".join(f'<div class="card"><div class="v">{escape(fmt(v))}</div><div class="k">{escape(k)}</div></div>'
                         for k, v in cards)
     header = ["variant", *params, *TABLE_METRICS, "status"]
-    head = "".join(f'<th class="{"l" if h in ("variant", "status") else ""}">{_e(h)}</th>' for h in header)
+    head = "".join(f'<th class="{"l" if h in ("variant", "status") else ""}">{escape(h)}</th>' for h in header)
     rows = []
     for vid, v in variants.items():
-        href = _e(f"{v.get('dir', vid)}/")
+        href = escape(f"{v.get('dir', vid)}/")
         cells: list[tuple[object, str]] = [(v["params"].get(p), "" if _num(v["params"].get(p)) is not None else "l")
                                            for p in params]
         m = v.get("metrics") or {}
@@ -210,20 +200,20 @@ def build_sweep_report(sweep_dir: Path) -> Path:
             last = "done" + (" (earlier run)" if v.get("skipped") else "")
             style = ""
         else:
-            last = f"failed: {_e(v.get('error', ''))}"
+            last = f"failed: {escape(v.get('error', ''))}"
             style = ' class="fail"'
-        rows.append(_row(f'<a href="{href}">{_e(vid)}</a>', cells, last, style))
+        rows.append(row(f'<a href="{href}">{escape(vid)}</a>', cells, last, style))
     title = f"sweep {summary.get('sweep', sweep_dir.name)}"
-    sub = (f"{_e(summary.get('description', ''))}<br>base scenario {_e(summary.get('scenario', ''))} · "
-           f"parameters: {_e(', '.join(params) or 'none')} · rendered: {_e(_fmt(summary.get('render')))} · "
-           f"backend {_e(summary.get('backend', '—'))}, {_e(summary.get('workers', '—'))} worker(s), "
-           f"{_e(_fmt(summary.get('elapsed_s')))} s · store {_e(summary.get('db', ''))}")
-    body = (f"<h1>{_e(title)}</h1><p class=\"sub\">{sub}</p><div class=\"cards\">{card_html}</div>"
+    sub = (f"{escape(summary.get('description', ''))}<br>base scenario {escape(summary.get('scenario', ''))} · "
+           f"parameters: {escape(', '.join(params) or 'none')} · rendered: {escape(fmt(summary.get('render')))} · "
+           f"backend {escape(summary.get('backend', '—'))}, {escape(summary.get('workers', '—'))} worker(s), "
+           f"{escape(fmt(summary.get('elapsed_s')))} s · store {escape(summary.get('db', ''))}")
+    body = (f"<h1>{escape(title)}</h1><p class=\"sub\">{sub}</p><div class=\"cards\">{card_html}</div>"
             "<h2>Metrics vs parameters</h2>" + ("".join(figs) or '<p class="muted">no numeric parameter to plot</p>')
             + "<h2>Variants</h2><p class=\"sub\">click a variant for its run directory "
             "(<code>lookahead report</code> it for the run page)</p>"
             f'<table class="suite"><tr>{head}</tr>{"".join(rows)}</table>')
     out = sweep_dir / REPORT_FILE
-    out.write_text(_page(f"lookahead {title}", body), encoding="utf-8")
+    out.write_text(page(f"lookahead {title}", body), encoding="utf-8")
     log.info("sweep report written: %s", out)
     return out

@@ -4,7 +4,7 @@
 scenario (``traffic.count: 10`` in ``scenarios/highway_traffic.yaml``) steps with
 a constant zero-acceleration action; one env step is one camera frame
 (``frame_every`` world ticks + ground truth + the perception stack, no rendering).
-The same simulated time of bare highway-env (``tools.bench.bare_highway``: its
+The same simulated time of bare highway-env (``tools.bench.common.bare_highway``: its
 ``Road``, the same IDM traffic and an IDM ego) is stepped in interleaved blocks in
 the same process; both restart when the episode ends (env resets are timed
 separately). Ratios: ``tracks_env_realtime_factor`` = simulated seconds per wall
@@ -22,7 +22,7 @@ import numpy as np
 
 import lookahead.sim  # noqa: F401  (registers the lookahead/ environments)
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.bench import bare_highway, case, machine
+from lookahead.tools.bench.common import bare_highway, case, machine
 
 ENV_ID = "lookahead/ForwardTracks-v0"
 

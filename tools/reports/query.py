@@ -24,7 +24,7 @@ from pathlib import Path
 
 from lookahead.intent.labels import Risk
 from lookahead.sim.records import jsonable
-from lookahead.tools.store import StoreError, open_db
+from lookahead.tools.sinks.store import StoreError, open_db
 
 WHATS = ("alerts", "tracks", "objects", "summary")
 FORMATS = ("table", "csv", "json")

@@ -14,8 +14,15 @@ import platform
 from importlib import metadata
 from pathlib import Path
 
+from lookahead.sim.records import NEVER as NEVER  # re-exported: the "never" sentinel of run files
 from lookahead.sim.records import TickRecord, jsonable
 from lookahead.sim.scenario import Scenario
+
+RUN_FILE = "run.json"
+TICKS_FILE = "ticks.jsonl"
+TIMINGS_FILE = "timings.jsonl"
+METRICS_FILE = "metrics.json"
+SUMMARY_FILE = "summary.json"  # a suite's (or sweep's) directory
 
 
 class OutputError(RuntimeError):

@@ -1,4 +1,4 @@
-"""``make demo``: run the smoke suite with rendering and leave things to look at."""
+"""Key frames: the PNGs a person looks at first, chosen by one rule for the demo and the report."""
 
 from __future__ import annotations
 
@@ -6,10 +6,9 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from lookahead.sim.catalogue import SCENARIOS
-from lookahead.tools.draw import save_rgb
-from lookahead.tools.rundir import prepare_dir
-from lookahead.tools.suite import load_suite
+from lookahead.tools.sinks.draw import save_rgb
+from lookahead.tools.sinks.rundir import prepare_dir
+from lookahead.tools.sinks.video import Overlay
 
 KEY_FRAMES = (0.25, 0.5, 0.75)  # fractions of each run at which a PNG is kept
 KEY_ALERTS = ("fcw", "critical")  # the first alert event of each of these kinds is a key frame too
@@ -36,11 +35,9 @@ def key_frame_reason(index: int, frames_total: int, alert_kinds: Iterable[str], 
 
 class KeyFrameSink:
     """Saves PNGs of the key frames (``key_frame_reason``) with the annotated video's overlay
-    (``tools.video.Overlay``: tracks coloured by risk, labels, range, TTC, trails, alert banner)."""
+    (``tools.sinks.video.Overlay``: tracks coloured by risk, labels, range, TTC, trails, alert banner)."""
 
     def __init__(self, out: Path, frames_total: int, lang: str = "en") -> None:
-        from lookahead.tools.video import Overlay
-
         self.out, self.frames_total = prepare_dir(out), frames_total
         self.overlay = Overlay(lang)
         self.saved: list[Path] = []
@@ -68,28 +65,3 @@ class KeyFrameSink:
         """``key_frames.json`` beside the PNGs: file name -> why it was kept (the report's captions)."""
         if self.reasons:
             (self.out / KEY_FRAMES_INDEX).write_text(json.dumps(self.reasons, indent=1) + "\n")
-
-
-def run_demo(out: Path, console) -> dict:
-    """The smoke suite rendered on two workers: run directories with key frames, one
-    SQLite store, an annotated video and a rerun recording of the first scenario,
-    and the HTML report of the whole suite."""
-    from lookahead.tools.report import build_report
-    from lookahead.tools.suite import run_suite
-
-    suite = SCENARIOS / "suites" / "smoke.yaml"
-    _, paths = load_suite(suite)
-    outputs = {p.stem: ("keyframes",) for p in paths}
-    outputs[paths[0].stem] = ("keyframes", "video", "rerun")
-    db = prepare_dir(out) / "smoke.sqlite"
-    if db.exists():
-        db.unlink()
-    summary = run_suite(suite, out, workers=2, render=True, db=db, outputs=outputs)
-    report = build_report(out)
-    from lookahead.tools.cli import print_suite
-
-    print_suite(summary)
-    first = out / paths[0].stem
-    console.print(f"report: {report}\nvideo: {first / 'annotated.mp4'}\nrerun: {first / 'run.rrd'}\n"
-                  f"database: {db}", highlight=False)
-    return summary

@@ -1,0 +1,1 @@
+"""Detector datasets from simulated runs: COCO / YOLO export and the scene generators."""

@@ -1,0 +1,1 @@
+"""Where a run's records go: the run directory, SQLite, annotated video, rerun, key frames, box drawing."""
