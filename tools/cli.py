@@ -11,11 +11,12 @@ import json
 import logging
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, NoReturn
 
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
 
 from lookahead.sim.catalogue import SCENARIOS, resolve_path
 
@@ -24,6 +25,19 @@ bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks; each writes a JS
 app.add_typer(bench_app, name="bench")
 console = Console(stderr=True)
 SCENARIO_HELP = "scenario YAML, or a packaged scenario's name (ped_crossing_nearside)"
+
+
+def fail(message: str) -> NoReturn:
+    """One ``error:`` line on stderr (no traceback) and exit code 2: how a user's mistake ends."""
+    console.print(f"[bold red]error:[/] {message}", markup=True, highlight=False, soft_wrap=True)
+    raise typer.Exit(2)
+
+
+def describe(exc: BaseException) -> str:
+    """One line for an exception: an OS error names its file."""
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"cannot read {exc.filename}: {exc.strerror or exc}"
+    return str(exc)
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -50,8 +64,7 @@ def user_errors(fn):
         except typer.Exit:
             raise
         except _user_errors() as e:
-            console.print(f"[bold red]error:[/] {e}", markup=True, highlight=False, soft_wrap=True)
-            raise typer.Exit(2) from None
+            fail(str(e))
 
     return wrapper
 
@@ -66,9 +79,7 @@ def yaml_option(name: str, text: str):
         mark = getattr(e, "problem_mark", None)
         where = f" (column {mark.column + 1})" if mark is not None else ""
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        console.print(f"[bold red]error:[/] {name}: malformed YAML: {problem}{where}", markup=True, highlight=False,
-                      soft_wrap=True)
-        raise typer.Exit(2) from None
+        fail(f"{name}: malformed YAML: {problem}{where}")
 
 
 WINDOWS_HELP = ("zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image with an optional zoom "
@@ -85,17 +96,54 @@ def windows_option(text: str | None) -> tuple[tuple[float, ...], ...]:
     try:
         return check_windows(yaml_option("--windows", text) or [])
     except (TypeError, ValueError) as e:
-        console.print(f"[bold red]error:[/] --windows: {e}", markup=True, highlight=False, soft_wrap=True)
-        raise typer.Exit(2) from None
+        fail(f"--windows: {e}")
 
 
 def save_bench(result: dict, out: Path) -> None:
     """Write a benchmark's JSON to ``out`` and print its table and ratios."""
-    from lookahead.tools.bench.common import print_bench
-
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(result, indent=2) + "\n")
-    print_bench(result, console)
+    print_bench(result)
+
+
+def print_bench(result: dict) -> None:
+    """A benchmark's cases (ms median, p95, n) as a table, then its ratios."""
+    table = Table(title="benchmark")
+    table.add_column("case")
+    table.add_column("ms median", justify="right")
+    table.add_column("ms p95", justify="right")
+    table.add_column("n", justify="right")
+    for name, c in result["cases"].items():
+        table.add_row(name, f"{c['ms_median']:.3f}", f"{c['ms_p95']:.3f}", str(c["n"]))
+    console.print(table)
+    for name, v in result["ratios"].items():
+        console.print(f"{name} = {v:.3f}", highlight=False)
+
+
+def print_track_bench(result: dict, trackers: tuple[str, ...]) -> None:
+    """``bench track``: timing cases and ratios, fps per tracker, then MOTA / IDF1 per sequence."""
+    print_bench(result)
+    for name in trackers:
+        console.print(f"{name}: {result['cases'][name]['fps']:.1f} fps", highlight=False)
+    table = Table(title="accuracy (TrackEval)")
+    table.add_column("sequence")
+    for name in (*trackers, "sort"):
+        table.add_column(f"{name} MOTA", justify="right")
+        table.add_column(f"{name} IDF1", justify="right")
+    acc = result["accuracy"]
+    ref = result.get("sort_reference", {})
+    rows = [(seq, [acc[t][seq] for t in trackers] + [ref.get("accuracy", {}).get(seq)]) for seq in acc[trackers[0]]]
+    pooled = result.get("accuracy_pooled", {})
+    rows += [
+        (f"pooled {src}", [pooled[t][src] for t in trackers] + [ref.get("accuracy_pooled", {}).get(src)])
+        for src in pooled.get(trackers[0], {})
+    ]
+    for label, ms in rows:
+        cells = [
+            f"{m[k]:.3f}" if m is not None and m[k] is not None else "-" for m in ms for k in ("mota", "idf1")
+        ]
+        table.add_row(label, *cells)
+    console.print(table)
 
 
 def camera_option(text: str | None) -> tuple[int, int] | None:
@@ -107,9 +155,7 @@ def camera_option(text: str | None) -> tuple[int, int] | None:
         if len(size) != 2 or min(size) < 16:
             raise ValueError
     except ValueError:
-        console.print(f"[bold red]error:[/] --camera {text!r}: WIDTHxHEIGHT in px expected, e.g. 1280x720",
-                      markup=True, highlight=False, soft_wrap=True)
-        raise typer.Exit(2) from None
+        fail(f"--camera {text!r}: WIDTHxHEIGHT in px expected, e.g. 1280x720")
     return size  # type: ignore[return-value]
 
 
@@ -452,9 +498,23 @@ def query(
     fmt: Annotated[str, typer.Option("--format", help="table | csv | json")] = "table",
 ) -> None:
     """Reports from a run database: alert events, tracks, GT objects, per-run summary."""
-    from lookahead.tools.reports.query import query_command
+    from lookahead.tools.reports.query import FORMATS, StoreError, query, to_csv, to_json
 
-    raise typer.Exit(query_command(db, what, run, fmt))
+    try:
+        if fmt not in FORMATS:
+            raise StoreError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
+        rows = query(db, what, run)
+    except StoreError as e:
+        fail(str(e))
+    if fmt != "table":
+        sys.stdout.write(to_json(rows) if fmt == "json" else to_csv(rows))
+        return
+    table = Table(title=f"{what} -- {db}", title_justify="left")
+    for name in rows[0] if rows else ["(no rows)"]:
+        table.add_column(name, overflow="fold")
+    for row in rows:
+        table.add_row(*("" if v is None else str(v) for v in row.values()))
+    Console(width=None if sys.stdout.isatty() else 200).print(table)
 
 
 @app.command()
@@ -490,10 +550,23 @@ def export_dataset(
     A generator file (``generator:`` section, see scenarios/generators/) exports one
     dataset per split (disjoint seed ranges) into OUT/<split>.
     """
-    from lookahead.tools.dataset.export import export_command
+    from lookahead.sim.scenario import ScenarioError
+    from lookahead.tools.dataset.export import export_source
+    from lookahead.tools.sinks.rundir import OutputError
 
-    raise typer.Exit(export_command(source, format, every, out, render, split, weather, workers, seeds=seeds,
-                                    camera=camera_option(camera)))
+    size = camera_option(camera)
+    try:
+        result = export_source(source, format, every, out, render, split, weather, workers, seeds=seeds, camera=size)
+    except (ScenarioError, OutputError, OSError, ValueError) as exc:
+        fail(str(exc))
+    if "splits" in result:
+        for sp, r in result["splits"].items():
+            typer.echo(f"{sp}: {r['scenes']} scenes, {r['frames']} frames, {r['objects']} objects")
+        typer.echo(f"{format} dataset -> {out}")
+        return
+    for s in result["sequences"]:
+        typer.echo(f"{s['name']}: {s['frames']} frames, {s['objects']} objects")
+    typer.echo(f"{format} dataset: {result['frames']} frames, {result['objects']} objects -> {out}")
 
 
 def _require_torch(command: str) -> None:
@@ -647,9 +720,27 @@ def track(
     frame_rate: Annotated[float | None, typer.Option(help="frames per second; default: frameRate of the sequence's seqinfo.ini, else 30")] = None,
 ) -> None:
     """Run the tracker over a MOTChallenge detection file."""
-    from lookahead.tools.runs.mot import track_command
+    from lookahead.tools.scoring.mot_eval import resolve_frame_rate, run_tracker_on_mot
 
-    raise typer.Exit(track_command(det, out, frame_rate))
+    if frame_rate is not None and not frame_rate > 0:
+        fail(f"--frame-rate must be positive, got {frame_rate}")
+    try:
+        rate, source, info = resolve_frame_rate(det, frame_rate)
+        if source == "default":
+            where = "has no frameRate" if info is not None else "found beside or above it"
+            what = f"{info.path} {where}" if info is not None else f"no seqinfo.ini {where}"
+            console.print(f"warning: {det}: {what}; assuming {rate:g} fps (pass --frame-rate to set it)",
+                          highlight=False, soft_wrap=True)
+        elif source == "--frame-rate" and info is not None and info.frame_rate not in (None, rate):
+            console.print(f"warning: --frame-rate {rate:g} overrides frameRate={info.frame_rate:g} of {info.path}",
+                          highlight=False, soft_wrap=True)
+        summary = run_tracker_on_mot(det, out, frame_rate=rate)
+    except (OSError, ValueError) as exc:
+        fail(describe(exc))
+    origin = {"--frame-rate": "from --frame-rate", "default": "default"}.get(source, f"from {source}")
+    typer.echo(f"frame rate: {rate:g} fps ({origin})")
+    typer.echo(f"wrote {out}: {summary['track_rows']} rows, {summary['tracks']} tracks over "
+               f"{summary['frames']} frames ({summary['dropped_detections']} invalid detections dropped)")
 
 
 @app.command("eval-mot")
@@ -659,9 +750,23 @@ def eval_mot(
     format: Annotated[str, typer.Option("--format", help="table | json")] = "table",
 ) -> None:
     """MOTA, MOTP, IDF1, HOTA, ID switches, FP, FN, MT/ML of a tracks file (TrackEval)."""
-    from lookahead.tools.runs.mot import eval_mot_command
+    from lookahead.tools.scoring.mot_eval import SUMMARY_METRICS, evaluate_mot
 
-    raise typer.Exit(eval_mot_command(gt, tracks, format))
+    if format not in ("table", "json"):
+        fail(f"--format must be one of table, json, got {format!r}")
+    try:
+        metrics = evaluate_mot(gt, tracks)
+    except (OSError, ValueError) as exc:
+        fail(describe(exc))
+    if format == "json":
+        typer.echo(json.dumps(metrics, indent=2, sort_keys=True))
+        return
+    table = Table(title=f"{tracks} vs {gt}")
+    table.add_column("metric")
+    table.add_column("value", justify="right")
+    for key, label, spec in SUMMARY_METRICS:
+        table.add_row(label, spec.format(metrics[key]))
+    Console().print(table)
 
 
 @bench_app.command("all")
@@ -724,11 +829,11 @@ def bench_track(
     repeats: Annotated[int, typer.Option(help="timed passes over every sequence")] = 3,
 ) -> None:
     """fps and MOTA/IDF1: our tracker vs deep-sort-realtime (no embedder) on MOT15 and simulated detections."""
+    from lookahead.tools.bench.track import TRACKERS
     from lookahead.tools.bench.track import bench_track as run_bench
-    from lookahead.tools.bench.track import print_track_bench
 
     result = run_bench(out, repeats=repeats)
-    print_track_bench(result, console)
+    print_track_bench(result, TRACKERS)
 
 
 @bench_app.command("env")

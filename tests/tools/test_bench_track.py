@@ -17,13 +17,13 @@ import pytest
 from rich.console import Console
 
 from lookahead.perception.detections import Detections
+from lookahead.tools import cli
 from lookahead.tools.bench.track import (
     DEEPSORT_EMBED_DIM,
     SIM_SCENARIOS,
     TRACKERS,
     bench_track,
     deepsort_inputs,
-    print_track_bench,
 )
 
 MOT_SEQ = "TUD-Campus"
@@ -108,10 +108,11 @@ def test_deepsort_inputs_match_detections() -> None:
     assert deepsort_inputs(Detections()) == ([], [])
 
 
-def test_print_track_bench(bench: tuple[dict, Path]) -> None:
+def test_print_track_bench(bench: tuple[dict, Path], monkeypatch: pytest.MonkeyPatch) -> None:
     result, _ = bench
     buf = io.StringIO()
-    print_track_bench(result, Console(file=buf, width=160))
+    monkeypatch.setattr(cli, "console", Console(file=buf, width=160))
+    cli.print_track_bench(result, TRACKERS)
     text = buf.getvalue()
     assert "fps_over_deepsort" in text and MOT_SEQ in text and "cut_in" in text
     assert "sort MOTA" in text

@@ -16,7 +16,7 @@ from lookahead.perception.geometry import iou_matrix
 from lookahead.perception.mot import read_mot
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.dataset.export import FORMATS, export_command, export_dataset, export_scenarios
+from lookahead.tools.dataset.export import FORMATS, export_dataset, export_scenarios
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIO = ROOT / "scenarios" / "urban_mix.yaml"  # many classes in view from the start
@@ -196,7 +196,7 @@ def test_study_round_trip(exported) -> None:
     assert n_tracked > 5
 
 
-def test_export_dataset_from_suite_yaml_and_cli_errors(short, tmp_path: Path, capsys) -> None:
+def test_export_dataset_from_suite_yaml_and_cli_errors(short, tmp_path: Path, capsys, lookahead) -> None:
     sc = tmp_path / "short.yaml"
     sc.write_text(yaml.safe_dump(short.model_copy(update={"duration": 0.5}).model_dump(mode="json")))
     suite = tmp_path / "suite.yaml"
@@ -204,11 +204,11 @@ def test_export_dataset_from_suite_yaml_and_cli_errors(short, tmp_path: Path, ca
     res = export_dataset(suite, "mot", 1, tmp_path / "ds", render=False)  # labels only: fast
     assert [s["name"] for s in res["sequences"]] == ["urban_mix"] and res["frames"] == 5
     assert (tmp_path / "ds" / "urban_mix" / "gt" / "gt.txt").stat().st_size > 0
-    assert export_command(sc, "voc", 1, tmp_path / "x") == 2
+    assert lookahead("export-dataset", sc, "--format", "voc", "--every", 1, "--out", tmp_path / "x") == 2
     assert capsys.readouterr().err.startswith("error: --format")
-    assert export_command(tmp_path / "missing.yaml", "yolo", 1, tmp_path / "x") == 2
+    assert lookahead("export-dataset", tmp_path / "missing.yaml", "--format", "yolo", "--every", 1, "--out", tmp_path / "x") == 2
     assert capsys.readouterr().err.startswith("error: ")
-    assert export_command(sc, "yolo", 0, tmp_path / "x") == 2
+    assert lookahead("export-dataset", sc, "--format", "yolo", "--every", 0, "--out", tmp_path / "x") == 2
     assert "--every" in capsys.readouterr().err
 
 

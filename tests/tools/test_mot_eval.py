@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from lookahead.perception.mot import MotRecords, read_mot, write_mot
-from lookahead.tools.runs.mot import eval_mot_command, track_command
 from lookahead.tools.scoring.mot_eval import evaluate_mot, run_tracker_on_mot
 
 
@@ -142,31 +141,31 @@ def test_run_tracker_on_mot_files(tmp_path: Path) -> None:
     assert m["idf1"] == pytest.approx(2 * 18 / (2 * 18 + 2))
 
 
-def test_cli_commands_success(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_cli_commands_success(lookahead, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     gt_path, det_path = _linear_scene(tmp_path)
     out = tmp_path / "tracks.txt"
-    assert track_command(det_path, out, 10.0) == 0
+    assert lookahead("track", "--det", det_path, "--out", out, "--frame-rate", 10.0) == 0
     assert "2 tracks" in capsys.readouterr().out
-    assert eval_mot_command(gt_path, out, "json") == 0
+    assert lookahead("eval-mot", "--gt", gt_path, "--tracks", out, "--format", "json") == 0
     metrics = json.loads(capsys.readouterr().out)
     assert metrics["mota"] == pytest.approx(0.9)
-    assert eval_mot_command(gt_path, out, "table") == 0
+    assert lookahead("eval-mot", "--gt", gt_path, "--tracks", out, "--format", "table") == 0
     assert "MOTA" in capsys.readouterr().out
 
 
 def test_cli_bad_input_exit_code_2_one_line(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    lookahead, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     bad = tmp_path / "bad.txt"
     bad.write_text("1,1,0,0,10,10\n1,1,zero,0,10,10\n")
     missing = tmp_path / "missing.txt"
     cases = [
-        (lambda: track_command(missing, tmp_path / "o.txt", 10.0), "missing.txt"),
-        (lambda: track_command(bad, tmp_path / "o.txt", 10.0), f"{bad}:2"),
-        (lambda: track_command(bad, tmp_path / "o.txt", 0.0), "frame-rate"),
-        (lambda: eval_mot_command(missing, bad, "table"), "missing.txt"),
-        (lambda: eval_mot_command(bad, bad, "json"), f"{bad}:2"),
-        (lambda: eval_mot_command(bad, bad, "xml"), "--format"),
+        (lambda: lookahead("track", "--det", missing, "--out", tmp_path / "o.txt", "--frame-rate", 10.0), "missing.txt"),
+        (lambda: lookahead("track", "--det", bad, "--out", tmp_path / "o.txt", "--frame-rate", 10.0), f"{bad}:2"),
+        (lambda: lookahead("track", "--det", bad, "--out", tmp_path / "o.txt", "--frame-rate", 0.0), "frame-rate"),
+        (lambda: lookahead("eval-mot", "--gt", missing, "--tracks", bad, "--format", "table"), "missing.txt"),
+        (lambda: lookahead("eval-mot", "--gt", bad, "--tracks", bad, "--format", "json"), f"{bad}:2"),
+        (lambda: lookahead("eval-mot", "--gt", bad, "--tracks", bad, "--format", "xml"), "--format"),
     ]
     for call, needle in cases:
         assert call() == 2
@@ -225,13 +224,13 @@ def test_track_cli_reads_frame_rate_from_seqinfo(tmp_path: Path) -> None:
     assert set(read_mot(tmp_path / "o.txt").track_id) == {1, 2}
 
 
-def test_track_seqinfo_beside_det_and_default_rate(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_track_seqinfo_beside_det_and_default_rate(lookahead, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     det = _gap_sequence(tmp_path / "flat", 25, det_subdir=".")  # det.txt next to seqinfo.ini
-    assert track_command(det, tmp_path / "a.txt") == 0
+    assert lookahead("track", "--det", det, "--out", tmp_path / "a.txt") == 0
     assert "frame rate: 25 fps (from " in capsys.readouterr().out
 
     bare = _gap_sequence(tmp_path / "bare", None)  # no seqinfo.ini anywhere near
-    assert track_command(bare, tmp_path / "b.txt") == 0
+    assert lookahead("track", "--det", bare, "--out", tmp_path / "b.txt") == 0
     captured = capsys.readouterr()
     assert "frame rate: 30 fps (default)" in captured.out
     warning = captured.err.strip().splitlines()
@@ -241,15 +240,15 @@ def test_track_seqinfo_beside_det_and_default_rate(tmp_path: Path, capsys: pytes
     assert (summary["frame_rate"], summary["frame_rate_source"], summary["frames"]) == (30.0, "default", 15)
 
 
-def test_track_bad_seqinfo_is_one_line_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_track_bad_seqinfo_is_one_line_error(lookahead, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     det = _gap_sequence(tmp_path / "SEQ", 25)
     ini = tmp_path / "SEQ" / "seqinfo.ini"
     ini.write_text(ini.read_text().replace("frameRate=25", "frameRate=fast"))
-    assert track_command(det, tmp_path / "o.txt") == 2
+    assert lookahead("track", "--det", det, "--out", tmp_path / "o.txt") == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and "seqinfo.ini: frameRate='fast'" in err
     assert len(err.strip().splitlines()) == 1
     ini.write_text("[Sequence]\nname=SEQ\n")  # no frameRate: default rate, with a warning
-    assert track_command(det, tmp_path / "o.txt") == 0
+    assert lookahead("track", "--det", det, "--out", tmp_path / "o.txt") == 0
     captured = capsys.readouterr()
     assert "has no frameRate" in captured.err and "30 fps (default)" in captured.out

@@ -15,7 +15,7 @@ import pytest
 
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.reports.query import WHATS, query_command
+from lookahead.tools.reports.query import WHATS
 from lookahead.tools.sinks.rundir import RunDirWriter
 from lookahead.tools.sinks.store import APPLICATION_ID, SCHEMA_VERSION, SqliteStore, StoreError
 
@@ -85,14 +85,19 @@ def test_schema_indices_wal_and_version(db):
         assert index in plan, (sql, plan)
 
 
-def run_query(capsys, path: Path, what: str, run: int | None, fmt: str) -> str:
-    assert query_command(path, what, run, fmt) == 0
+def query_command(lookahead, db: Path, what: str, run: int | None, fmt: str) -> int:
+    """``lookahead query DB WHAT [--run RUN] --format FMT``: its exit code."""
+    return lookahead("query", db, what, *(["--run", run] if run is not None else []), "--format", fmt)
+
+
+def run_query(capsys, lookahead, path: Path, what: str, run: int | None, fmt: str) -> str:
+    assert query_command(lookahead, path, what, run, fmt) == 0
     out = capsys.readouterr()
     assert out.err == ""
     return out.out
 
 
-def test_query_every_report_in_every_format(db, capsys):
+def test_query_every_report_in_every_format(db, capsys, lookahead):
     path = db[0]
     conn = sqlite3.connect(path)
     expected = {
@@ -102,33 +107,33 @@ def test_query_every_report_in_every_format(db, capsys):
         "summary": 2,
     }
     for what in WHATS:
-        rows = json.loads(run_query(capsys, path, what, None, "json"))
+        rows = json.loads(run_query(capsys, lookahead, path, what, None, "json"))
         assert len(rows) == expected[what] > 0, what
-        parsed = list(csv.DictReader(io.StringIO(run_query(capsys, path, what, None, "csv"))))
+        parsed = list(csv.DictReader(io.StringIO(run_query(capsys, lookahead, path, what, None, "csv"))))
         assert len(parsed) == len(rows) and list(parsed[0]) == list(rows[0])
         assert [r["run"] for r in parsed] == [str(r["run"]) for r in rows]
-        only2 = json.loads(run_query(capsys, path, what, 2, "json"))
+        only2 = json.loads(run_query(capsys, lookahead, path, what, 2, "json"))
         assert only2 == [r for r in rows if r["run"] == 2] and only2
-        table = run_query(capsys, path, what, 1, "table")
+        table = run_query(capsys, lookahead, path, what, 1, "table")
         assert all(name in table for name in list(rows[0])[:3])
-    summary = json.loads(run_query(capsys, path, "summary", None, "json"))
+    summary = json.loads(run_query(capsys, lookahead, path, "summary", None, "json"))
     assert [(s["run"], s["complete"], s["collisions"]) for s in summary] == [(1, 1, 1), (2, 1, 1)]
     assert summary[0]["alerts_high"] + summary[0]["alerts_critical"] > 0
-    objects = list(csv.DictReader(io.StringIO(run_query(capsys, path, "objects", 1, "csv"))))
+    objects = list(csv.DictReader(io.StringIO(run_query(capsys, lookahead, path, "objects", 1, "csv"))))
     ped = objects[0]
     assert ped["name"] == "ped1" and ped["cls"] == "pedestrian" and ped["max_risk"] == "CRITICAL"
     assert float(ped["first_seen"]) <= float(ped["first_tracked"]) <= float(ped["first_alert"])
-    alerts = json.loads(run_query(capsys, path, "alerts", 1, "json"))
+    alerts = json.loads(run_query(capsys, lookahead, path, "alerts", 1, "json"))
     assert {a["level"] for a in alerts} <= {"NONE", "HIGH", "CRITICAL"} and alerts[0]["actor_id"] == 1
 
 
-def test_query_bad_input_is_one_error_line(db, tmp_path, capsys):
+def test_query_bad_input_is_one_error_line(db, tmp_path, capsys, lookahead):
     path = db[0]
     junk = tmp_path / "junk.db"
     junk.write_text("not a database, just text " * 10)
     for args in [(path, "nope", None, "json"), (path, "alerts", None, "xml"), (path, "alerts", 99, "json"),
                  (tmp_path / "missing.db", "summary", None, "table"), (junk, "summary", None, "csv")]:
-        assert query_command(*args) == 2, args
+        assert query_command(lookahead, *args) == 2, args
         err = capsys.readouterr()
         assert err.out == "" and err.err.startswith("error: ") and err.err.count("\n") == 1, err.err
 
@@ -155,7 +160,7 @@ Runner(sc, sinks=[SqliteStore(Path(sys.argv[2]), sc, batch_frames=int(sys.argv[3
 """
 
 
-def test_killed_run_leaves_a_consistent_incomplete_db(tmp_path, capsys):
+def test_killed_run_leaves_a_consistent_incomplete_db(tmp_path, capsys, lookahead):
     path, batch, n = tmp_path / "crash.sqlite", 10, 25
     proc = subprocess.run([sys.executable, "-c", CRASH, str(PED), str(path), str(batch), str(n)],
                           cwd=ROOT, capture_output=True, text=True, timeout=60)
@@ -168,7 +173,7 @@ def test_killed_run_leaves_a_consistent_incomplete_db(tmp_path, capsys):
     assert conn.execute("SELECT MAX(frame) FROM ground_truth").fetchone()[0] == 19
     assert conn.execute("SELECT complete, ended FROM runs").fetchall() == [(0, None)]
     conn.close()
-    assert query_command(path, "summary", None, "json") == 0
+    assert query_command(lookahead, path, "summary", None, "json") == 0
     assert json.loads(capsys.readouterr().out)[0]["complete"] == 0
 
 
@@ -305,13 +310,13 @@ def test_assessments_table_matches_the_run_directory(db):
         assert index in plan, (sql, plan)
 
 
-def test_tracks_report_uses_assessments(db, capsys):
-    rows = json.loads(run_query(capsys, db[0], "tracks", 1, "json"))
+def test_tracks_report_uses_assessments(db, capsys, lookahead):
+    rows = json.loads(run_query(capsys, lookahead, db[0], "tracks", 1, "json"))
     worst = max(rows, key=lambda r: ["SAFE", "LOW", "MEDIUM", "HIGH", "CRITICAL"].index(r["max_risk"]))
     assert worst["max_risk"] == "CRITICAL" and worst["reason"].startswith("CRITICAL: ")
 
 
-def test_an_old_schema_version_is_one_line_and_untouched(tmp_path, capsys):
+def test_an_old_schema_version_is_one_line_and_untouched(tmp_path, capsys, lookahead):
     """A version-1 store (label/risk in tracks, no assessments) is refused by the sink and by query."""
     old = tmp_path / "v1.sqlite"
     with sqlite3.connect(old) as c:
@@ -324,7 +329,7 @@ def test_an_old_schema_version_is_one_line_and_untouched(tmp_path, capsys):
         SqliteStore(old, load_scenario(PED))
     msg = str(e.value)
     assert "schema version 1" in msg and f"reads only {SCHEMA_VERSION}" in msg and "\n" not in msg
-    assert query_command(old, "summary", None, "table") == 2
+    assert query_command(lookahead, old, "summary", None, "table") == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "schema version 1" in err
     assert old.read_bytes() == before

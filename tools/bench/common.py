@@ -94,18 +94,3 @@ def bench_sim(scenario_path: Path, ticks: int = 400, frames: int = 30, block: in
         "cases": cases,
         "ratios": ratios,
     }
-
-
-def print_bench(result: dict, console) -> None:
-    from rich.table import Table
-
-    table = Table(title="benchmark")
-    table.add_column("case")
-    table.add_column("ms median", justify="right")
-    table.add_column("ms p95", justify="right")
-    table.add_column("n", justify="right")
-    for name, c in result["cases"].items():
-        table.add_row(name, f"{c['ms_median']:.3f}", f"{c['ms_p95']:.3f}", str(c["n"]))
-    console.print(table)
-    for name, v in result["ratios"].items():
-        console.print(f"{name} = {v:.3f}", highlight=False)

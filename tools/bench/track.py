@@ -393,33 +393,3 @@ def _deepsort_version() -> str | None:
         return version("deep-sort-realtime")
     except PackageNotFoundError:
         return None
-
-
-def print_track_bench(result: dict, console) -> None:
-    """Timing cases and ratio (``tools.bench.common.print_bench``), then MOTA/IDF1 per sequence."""
-    from rich.table import Table
-
-    from lookahead.tools.bench.common import print_bench
-
-    print_bench(result, console)
-    for name in TRACKERS:
-        console.print(f"{name}: {result['cases'][name]['fps']:.1f} fps", highlight=False)
-    table = Table(title="accuracy (TrackEval)")
-    table.add_column("sequence")
-    for name in (*TRACKERS, "sort"):
-        table.add_column(f"{name} MOTA", justify="right")
-        table.add_column(f"{name} IDF1", justify="right")
-    acc = result["accuracy"]
-    ref = result.get("sort_reference", {})
-    rows = [(seq, [acc[t][seq] for t in TRACKERS] + [ref.get("accuracy", {}).get(seq)]) for seq in acc[TRACKERS[0]]]
-    pooled = result.get("accuracy_pooled", {})
-    rows += [
-        (f"pooled {src}", [pooled[t][src] for t in TRACKERS] + [ref.get("accuracy_pooled", {}).get(src)])
-        for src in pooled.get(TRACKERS[0], {})
-    ]
-    for label, ms in rows:
-        cells = [
-            f"{m[k]:.3f}" if m is not None and m[k] is not None else "-" for m in ms for k in ("mota", "idf1")
-        ]
-        table.add_row(label, *cells)
-    console.print(table)

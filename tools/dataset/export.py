@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import json
 import logging
-import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,7 +61,7 @@ import yaml
 from lookahead.perception.detections import CLASSES
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.records import Sink, TickRecord
-from lookahead.sim.scenario import Scenario, ScenarioError, load_scenario
+from lookahead.sim.scenario import Scenario, load_scenario
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 from lookahead.tools.sinks.rundir import OutputError, prepare_dir
 
@@ -520,44 +519,26 @@ def export_dataset(source: Path, fmt: str, every: int, out: Path, render: bool =
     return export_scenarios(load_sources(source), fmt, every, out, render=render)
 
 
-def export_command(
+def export_source(
     source: Path, fmt: str, every: int, out: Path, render: bool = True, splits: Sequence[str] | None = None,
     weather: str | None = None, workers: int = 1, progress=None, seeds: tuple[int, int] | None = None,
     camera: tuple[int, int] | None = None,
-) -> int:
-    """CLI body of ``lookahead export-dataset``: 0, or 2 with one ``error:`` line.
+) -> dict:
+    """``lookahead export-dataset``: a scenario, a suite or a generator file (``tools.dataset.scene_gen``)
+    exported as a ``fmt`` dataset into ``out``; ``splits``, ``weather``, ``workers``, ``seeds`` and
+    ``camera`` apply to generator files only (``ValueError`` otherwise).
 
-    ``source`` may be a scenario, a suite or a generator file (``tools.dataset.scene_gen``);
-    ``splits``, ``weather``, ``workers``, ``seeds`` and ``camera`` apply to generator files only.
+    Returns ``export_generated``'s result (with ``splits``) for a generator file, else
+    ``export_dataset``'s (with ``sequences``).
     """
     from lookahead.tools.dataset.scene_gen import is_generator
     from lookahead.tools.runs.suite import read_yaml
 
-    try:
-        if fmt not in FORMATS:
-            raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
-        if is_generator(read_yaml(source, "scenario, suite or generator")):
-            result = export_generated(Path(source), fmt, every, Path(out), splits, weather, workers,
-                                      progress=progress, seeds=seeds, camera=camera)
-            for sp, r in result["splits"].items():
-                print(f"{sp}: {r['scenes']} scenes, {r['frames']} frames, {r['objects']} objects")
-            print(f"{fmt} dataset -> {out}")
-            return 0
-        if splits or weather or seeds or camera:
-            raise ValueError("--split, --weather, --seeds and --camera apply to generator files only")
-        result = export_dataset(Path(source), fmt, every, Path(out), render=render)
-    except (ScenarioError, OutputError, OSError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    for s in result["sequences"]:
-        print(f"{s['name']}: {s['frames']} frames, {s['objects']} objects")
-    print(f"{fmt} dataset: {result['frames']} frames, {result['objects']} objects -> {out}")
-    return 0
-
-
-if __name__ == "__main__":
-    logging.basicConfig(level=logging.INFO)
-    if len(sys.argv) != 5:
-        print("usage: python -m tools.dataset.export SCENARIO|SUITE FORMAT EVERY OUT", file=sys.stderr)
-        sys.exit(2)
-    sys.exit(export_command(Path(sys.argv[1]), sys.argv[2], int(sys.argv[3]), Path(sys.argv[4])))
+    if fmt not in FORMATS:
+        raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
+    if is_generator(read_yaml(source, "scenario, suite or generator")):
+        return export_generated(Path(source), fmt, every, Path(out), splits, weather, workers,
+                                progress=progress, seeds=seeds, camera=camera)
+    if splits or weather or seeds or camera:
+        raise ValueError("--split, --weather, --seeds and --camera apply to generator files only")
+    return export_dataset(Path(source), fmt, every, Path(out), render=render)

@@ -9,17 +9,18 @@
 * ``summary`` -- one row per run: frames, end time, collisions, alerts by level, complete.
 
 Output: ``table`` (rich, stdout), ``csv`` (csv module, stdout; inf as ``inf``),
-``json`` (a list of objects; NaN -> null, inf -> 1e9 as in ``ticks.jsonl``).
+``json`` (a list of objects; NaN -> null, inf -> 1e9 as in ``ticks.jsonl``), formatted here
+(``to_csv``, ``to_json``) and printed by the CLI.
 The DB is opened read-only.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import sqlite3
-import sys
 from pathlib import Path
 
 from lookahead.intent.labels import Risk
@@ -97,45 +98,31 @@ def _tidy(row: dict) -> dict:
     return row
 
 
-def query_command(db: Path, what: str, run: int | None = None, fmt: str = "table") -> int:
-    """Print one report of ``db`` in ``fmt``; 0 on success, 2 (one ``error:`` line on stderr) on bad input."""
+def query(db: Path, what: str, run: int | None = None) -> list[dict]:
+    """The rows of report ``what`` (``WHATS``) of ``db``, of one run or all; ``StoreError`` (one line) on bad input."""
+    if what not in WHATS:
+        raise StoreError(f"unknown report {what!r}: expected one of {', '.join(WHATS)}")
+    conn = open_db(db, create=False)
     try:
-        if what not in WHATS:
-            raise StoreError(f"unknown report {what!r}: expected one of {', '.join(WHATS)}")
-        if fmt not in FORMATS:
-            raise StoreError(f"unknown format {fmt!r}: expected one of {', '.join(FORMATS)}")
-        conn = open_db(db, create=False)
-        try:
-            if run is not None and conn.execute("SELECT 1 FROM runs WHERE id = ?", (run,)).fetchone() is None:
-                raise StoreError(f"{db}: no run {run} (see `lookahead query {db} summary`)")
-            rows = fetch(conn, what, run)
-        except sqlite3.Error as e:
-            raise StoreError(f"{db}: cannot read ({e})") from None
-        finally:
-            conn.close()
-    except StoreError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
-    emit(rows, fmt, title=f"{what} -- {db}")
-    return 0
+        if run is not None and conn.execute("SELECT 1 FROM runs WHERE id = ?", (run,)).fetchone() is None:
+            raise StoreError(f"{db}: no run {run} (see `lookahead query {db} summary`)")
+        return fetch(conn, what, run)
+    except sqlite3.Error as e:
+        raise StoreError(f"{db}: cannot read ({e})") from None
+    finally:
+        conn.close()
 
 
-def emit(rows: list[dict], fmt: str, title: str = "") -> None:
-    """Write ``rows`` to stdout as a rich table, CSV or JSON."""
-    if fmt == "json":
-        sys.stdout.write(json.dumps(jsonable(rows), ensure_ascii=False, indent=1) + "\n")
-    elif fmt == "csv":
-        if rows:
-            w = csv.DictWriter(sys.stdout, fieldnames=list(rows[0]), lineterminator="\n")
-            w.writeheader()
-            w.writerows(rows)
-    else:
-        from rich.console import Console
-        from rich.table import Table
+def to_json(rows: list[dict]) -> str:
+    """``rows`` as a JSON list of objects (NaN -> null, inf -> ``NEVER`` as in ``ticks.jsonl``)."""
+    return json.dumps(jsonable(rows), ensure_ascii=False, indent=1) + "\n"
 
-        table = Table(title=title, title_justify="left")
-        for name in rows[0] if rows else ["(no rows)"]:
-            table.add_column(name, overflow="fold")
-        for row in rows:
-            table.add_row(*("" if v is None else str(v) for v in row.values()))
-        Console(width=None if sys.stdout.isatty() else 200).print(table)
+
+def to_csv(rows: list[dict]) -> str:
+    """``rows`` as CSV with a header line (inf as ``inf``); empty for no rows."""
+    buf = io.StringIO()
+    if rows:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
+        w.writeheader()
+        w.writerows(rows)
+    return buf.getvalue()

@@ -232,7 +232,7 @@ SCORE_PERCENTILE = 75.0
 
 def mot_tracker_config(**overrides) -> TrackerConfig:
     """``TrackerConfig`` defaults with ``MOT_TRACKER_OVERRIDES`` (and ``overrides``) applied."""
-    return dataclasses.replace(TrackerConfig(), **{**MOT_TRACKER_OVERRIDES, **overrides})
+    return TrackerConfig(**{**MOT_TRACKER_OVERRIDES, **overrides})
 
 
 def normalise_scores(dets: MotRecords, percentile: float = SCORE_PERCENTILE) -> MotRecords:
@@ -402,3 +402,20 @@ def run_tracker_on_mot(
     }
     log.info("tracked %s -> %s: %s", det_path, out_path, summary)
     return summary
+
+
+#: The summary a person reads first: (metrics key, label, format), in order.
+SUMMARY_METRICS = (
+    ("hota", "HOTA", "{:.3f}"),
+    ("mota", "MOTA", "{:.3f}"),
+    ("motp", "MOTP", "{:.3f}"),
+    ("idf1", "IDF1", "{:.3f}"),
+    ("id_switches", "ID switches", "{}"),
+    ("fp", "FP", "{}"),
+    ("fn", "FN", "{}"),
+    ("mostly_tracked", "Mostly tracked", "{}"),
+    ("mostly_lost", "Mostly lost", "{}"),
+    ("fragmentations", "Fragmentations", "{}"),
+    ("num_gt_ids", "GT ids", "{}"),
+    ("num_tracker_ids", "Tracker ids", "{}"),
+)
