@@ -1,22 +1,24 @@
 """Multi-object tracker: Kalman boxes + ByteTrack two-stage association.
 
-Pipeline per frame (``Tracker.update``):
+Pipeline per frame (``Tracker.update``), one method per step:
 
-1. Drop invalid detections (non-finite numbers, width/height <= 0, coordinates
-   beyond ``max_abs_coord``) and count them in ``Tracker.dropped_detections``.
-   Fold duplicates (``duplicate_iou``: one object detected as two classes) into
-   the higher-scoring detection as class evidence; count them in
-   ``Tracker.merged_duplicates``.
-2. Predict every track one frame ahead with its Kalman filter.
-3. Stage 1: high-score detections (``score >= high_score``) against *all*
-   tracks (tentative, confirmed, lost); cost ``1 - IoU`` gated at ``match_iou``,
-   optionally mixed with the cosine distance of appearance features.
-4. Stage 2: low-score detections (``low_score <= score < high_score``) against
-   the confirmed tracks left over (IoU only, gated at ``second_match_iou``).
-   Low-score boxes are often partly occluded objects; they keep tracks alive
-   but never start one, and lost tracks are not revived by them (ByteTrack).
-5. Unmatched high detections with ``score >= new_track_score`` start tentative
-   tracks.
+1. ``_prepare``: drop invalid detections (non-finite numbers, width/height <= 0,
+   coordinates beyond ``max_abs_coord``) and count them in
+   ``Tracker.dropped_detections``. Fold duplicates (``duplicate_iou``: one object
+   detected as two classes) into the higher-scoring detection as class evidence;
+   count them in ``Tracker.merged_duplicates``.
+2. ``_predict``: predict every track one frame ahead with its Kalman filter.
+3. ``_associate_high`` (stage 1): high-score detections (``score >= high_score``)
+   against *all* tracks (tentative, confirmed, lost); cost ``1 - IoU`` gated at
+   ``match_iou``, optionally mixed with the cosine distance of appearance features.
+4. ``_associate_low`` (stage 2): low-score detections (``low_score <= score <
+   high_score``) against the confirmed tracks left over (IoU only, gated at
+   ``second_match_iou``). Low-score boxes are often partly occluded objects; they
+   keep tracks alive but never start one, and lost tracks are not revived by them
+   (ByteTrack). ``_apply_matches`` then updates the matched tracks and ``_prune``
+   turns the unmatched ones lost or removes them.
+5. ``_birth``: unmatched high detections with ``score >= new_track_score`` start
+   tentative tracks. ``_output`` reports the confirmed and coasting ones.
 
 Lifecycle: tentative --(``min_hits`` hits)--> confirmed --(miss)--> lost
 --(match)--> confirmed; a lost track keeps predicting and is removed after
@@ -43,7 +45,7 @@ Defaults, and why:
   scored as a false positive. ADAS trackers coast confirmed tracks through
   short dropouts; downstream (intent, alerts) sees the state. Off, only
   tracks matched this frame are output (MOTChallenge-style evaluation does
-  that, ``tools.mot_eval``).
+  that, ``tools.scoring.mot_eval``).
 
 Appearance (optional): with ``reid_weight > 0`` and a ``features`` array, the
 stage-1 cost is ``(1 - w) (1 - IoU) + w * cosine_distance`` against each
@@ -83,8 +85,10 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import Annotated, NamedTuple
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.optimize import linear_sum_assignment
 
 from lookahead.perception.detections import Detections
@@ -104,127 +108,110 @@ class TrackState(IntEnum):
     LOST = 2
 
 
-@dataclass
-class TrackerConfig:
-    """Tracker parameters. Time buffers are in seconds (converted with the frame rate).
+class TrackerConfig(BaseModel):
+    """Tracker parameters (scores unitless, sizes in px; time buffers in seconds, converted
+    with the frame rate). Bounds are the fields' constraints; ``low_score <= high_score``."""
 
-    Attributes:
-        high_score: detections at or above this score enter stage-1 association.
-        low_score: detections below this score are ignored; those in
-            ``[low_score, high_score)`` enter stage 2.
-        new_track_score: minimum score of an unmatched detection to start a track.
-        match_iou: minimum IoU of a stage-1 (high-score) match.
-        match_buffer: association IoU is computed on buffered boxes, each side
-            grown by this fraction of the box's width or height (the C-BIoU
-            tracker's buffer, Yang et al., WACV 2023), so that a box that moves or
-            grows faster than the constant-velocity prediction -- a near object
-            crossing, or closing in -- still overlaps its track (0 = unbuffered).
-        min_match_size: and those boxes are widened and heightened about their
-            centres to at least this many px, so that one pixel of jitter does not
-            break the track of a distant object a few pixels wide (0 = no floor).
-            Outputs are unchanged by either.
-        second_match_iou: minimum IoU of a stage-2 (low-score) match.
-        min_hits: matches needed for a tentative track to become confirmed.
-        max_lost_s: a lost track is removed after this long without a match, s.
-        tentative_max_lost_frames: a tentative track is removed after more
-            consecutive misses than this.
-        per_class: associate detections and tracks of the same class only (or,
-            with ``class_switch_cost``, prefer them).
-        class_switch_cost: with ``per_class``, a detection of another class than
-            the track's may still match it at this extra cost (added to 1 - IoU);
-            None = never. Keeps the identity of an object whose detector flickers
-            between similar classes (pedestrian / cyclist).
-        class_memory: how much of a track's class evidence survives each match,
-            in [0, 1): the track's class is the argmax of its detections' scores
-            summed per class, each earlier match weighted down by this factor;
-            0 = the class of its latest detection.
-        class_hysteresis: a track changes its class only when another class's votes
-            exceed its current class's by this factor (>= 1; 1 = the plain argmax),
-            so near-even evidence does not flip the class frame to frame.
-        duplicate_iou: a detection (of any class) overlapping a higher-scoring one by
-            more than this IoU (boxes floored at ``min_match_size``, unbuffered) is
-            the same object seen as another class -- the per-class NMS of a
-            detector keeps both when it cannot decide between pedestrian and
-            cyclist: it takes no part in association or track births, and its score
-            counts for its class in the class votes of whatever track the higher one
-            joins. None = every detection is an object of its own.
-        reid_weight: weight in [0, 1] of the appearance cosine distance in the
-            stage-1 cost; 0 disables appearance even when features are passed.
-        reid_max_distance: cosine distance under which a lost track may be
-            recovered by appearance alone (IoU gate not met).
-        feature_momentum: exponential-moving-average momentum of a track's
-            appearance feature.
-        output_lost: also output lost (coasting) tracks -- predicted box, ``state``
-            LOST, ``det_index`` -1 -- for at most ``output_lost_s``.
-        output_lost_s: how long a lost track is still output, s (at least one
-            frame; None = as long as it is kept, ``max_lost_s``).
-        max_abs_coord: detections with any |coordinate| above this (px) are
-            treated as invalid.
-        std_weight_position: Kalman position noise std as a fraction of box size
-            (per frame).
-        std_weight_velocity: Kalman noise std of the size rates (and of the centre
-            rates when ``std_weight_accel`` is None) as a fraction of box size,
-            per frame.
-        std_weight_accel: white-noise acceleration std of the box centre as a
-            fraction of box size per s^2; its per-frame velocity noise is
-            ``std_weight_accel / frame_rate**2`` (0.05 of the box size at 10 fps,
-            0.0056 at 30 fps), so the same value suits any frame rate.
-        init_velocity_std: std of a new track's (unknown) velocity as a fraction
-            of its box size, per frame.
-    """
+    model_config = ConfigDict(extra="forbid")
+    high_score: float = Field(0.45, description="detections at or above this score enter stage-1 association")
+    low_score: float = Field(
+        0.1, description="detections below this score are ignored; those in [low_score, high_score) enter stage 2"
+    )
+    new_track_score: float = Field(0.45, description="minimum score of an unmatched detection to start a track")
+    match_iou: float = Field(0.3, ge=0, le=1, description="minimum IoU of a stage-1 (high-score) match")
+    match_buffer: float = Field(
+        0.3, ge=0,
+        description="association IoU is computed on buffered boxes, each side grown by this fraction of the box's"
+        " width or height (the C-BIoU tracker's buffer, Yang et al., WACV 2023), so that a box that moves or grows"
+        " faster than the constant-velocity prediction -- a near object crossing, or closing in -- still overlaps"
+        " its track (0 = unbuffered)",
+    )
+    min_match_size: float = Field(
+        8.0, ge=0,
+        description="and those boxes are widened and heightened about their centres to at least this many px, so"
+        " that one pixel of jitter does not break the track of a distant object a few pixels wide (0 = no floor)."
+        " Outputs are unchanged by either",
+    )
+    second_match_iou: float = Field(0.3, ge=0, le=1, description="minimum IoU of a stage-2 (low-score) match")
+    min_hits: int = Field(2, ge=1, description="matches needed for a tentative track to become confirmed")
+    max_lost_s: float = Field(1.0, ge=0, description="a lost track is removed after this long without a match (s)")
+    tentative_max_lost_frames: int = Field(
+        1, ge=0, description="a tentative track is removed after more consecutive misses than this"
+    )
+    per_class: bool = Field(
+        True,
+        description="associate detections and tracks of the same class only (or, with class_switch_cost, prefer them)",
+    )
+    class_switch_cost: Annotated[float, Field(ge=0)] | None = Field(
+        0.2,
+        description="with per_class, a detection of another class than the track's may still match it at this extra"
+        " cost (added to 1 - IoU); null = never. Keeps the identity of an object whose detector flickers between"
+        " similar classes (pedestrian / cyclist)",
+    )
+    class_memory: float = Field(
+        0.9, ge=0, lt=1,
+        description="how much of a track's class evidence survives each match: the track's class is the argmax of"
+        " its detections' scores summed per class, each earlier match weighted down by this factor; 0 = the class"
+        " of its latest detection",
+    )
+    class_hysteresis: float = Field(
+        1.25, ge=1,
+        description="a track changes its class only when another class's votes exceed its current class's by this"
+        " factor (1 = the plain argmax), so near-even evidence does not flip the class frame to frame",
+    )
+    duplicate_iou: Annotated[float, Field(ge=0, le=1)] | None = Field(
+        0.55,
+        description="a detection (of any class) overlapping a higher-scoring one by more than this IoU (boxes"
+        " floored at min_match_size, unbuffered) is the same object seen as another class -- the per-class NMS of"
+        " a detector keeps both when it cannot decide between pedestrian and cyclist: it takes no part in"
+        " association or track births, and its score counts for its class in the class votes of whatever track"
+        " the higher one joins. null = every detection is an object of its own",
+    )
+    reid_weight: float = Field(
+        0.0, ge=0, le=1,
+        description="weight of the appearance cosine distance in the stage-1 cost; 0 disables appearance even"
+        " when features are passed",
+    )
+    reid_max_distance: float = Field(
+        0.3, description="cosine distance under which a lost track may be recovered by appearance alone (IoU gate not met)"
+    )
+    feature_momentum: float = Field(
+        0.9, ge=0, lt=1, description="exponential-moving-average momentum of a track's appearance feature"
+    )
+    output_lost: bool = Field(
+        True,
+        description="also output lost (coasting) tracks -- predicted box, state LOST, det_index -1 -- for at most"
+        " output_lost_s",
+    )
+    output_lost_s: Annotated[float, Field(ge=0)] | None = Field(
+        0.2, description="how long a lost track is still output (s; at least one frame; null = as long as it is kept)"
+    )
+    max_abs_coord: float = Field(
+        1e6, gt=0, description="detections with any |coordinate| above this (px) are treated as invalid"
+    )
+    std_weight_position: float = Field(
+        1.0 / 20.0, gt=0, description="Kalman position noise std as a fraction of box size (per frame)"
+    )
+    std_weight_velocity: float = Field(
+        1.0 / 80.0, gt=0,
+        description="Kalman noise std of the size rates (and of the centre rates when std_weight_accel is null) as"
+        " a fraction of box size, per frame",
+    )
+    std_weight_accel: Annotated[float, Field(gt=0)] | None = Field(
+        5.0,
+        description="white-noise acceleration std of the box centre as a fraction of box size per s^2; its"
+        " per-frame velocity noise is std_weight_accel / frame_rate^2 (0.05 of the box size at 10 fps, 0.0056 at"
+        " 30 fps), so the same value suits any frame rate",
+    )
+    init_velocity_std: float = Field(
+        0.5, gt=0, description="std of a new track's (unknown) velocity as a fraction of its box size, per frame"
+    )
 
-    high_score: float = 0.45
-    low_score: float = 0.1
-    new_track_score: float = 0.45
-    match_iou: float = 0.3
-    match_buffer: float = 0.3
-    min_match_size: float = 8.0
-    second_match_iou: float = 0.3
-    min_hits: int = 2
-    max_lost_s: float = 1.0
-    tentative_max_lost_frames: int = 1
-    per_class: bool = True
-    class_switch_cost: float | None = 0.2
-    class_memory: float = 0.9
-    class_hysteresis: float = 1.25
-    duplicate_iou: float | None = 0.55
-    reid_weight: float = 0.0
-    reid_max_distance: float = 0.3
-    feature_momentum: float = 0.9
-    output_lost: bool = True
-    output_lost_s: float | None = 0.2
-    max_abs_coord: float = 1e6
-    std_weight_position: float = 1.0 / 20.0
-    std_weight_velocity: float = 1.0 / 80.0
-    std_weight_accel: float | None = 5.0
-    init_velocity_std: float = 0.5
-
-    def __post_init__(self) -> None:
-        checks = {
-            "low_score <= high_score": self.low_score <= self.high_score,
-            "0 <= match_iou <= 1": 0.0 <= self.match_iou <= 1.0,
-            "match_buffer >= 0": self.match_buffer >= 0.0,
-            "min_match_size >= 0": self.min_match_size >= 0.0,
-            "0 <= second_match_iou <= 1": 0.0 <= self.second_match_iou <= 1.0,
-            "min_hits >= 1": self.min_hits >= 1,
-            "max_lost_s >= 0": self.max_lost_s >= 0.0,
-            "output_lost_s >= 0 or None": self.output_lost_s is None or self.output_lost_s >= 0.0,
-            "tentative_max_lost_frames >= 0": self.tentative_max_lost_frames >= 0,
-            "0 <= reid_weight <= 1": 0.0 <= self.reid_weight <= 1.0,
-            "0 <= feature_momentum < 1": 0.0 <= self.feature_momentum < 1.0,
-            "0 <= class_memory < 1": 0.0 <= self.class_memory < 1.0,
-            "class_hysteresis >= 1": self.class_hysteresis >= 1.0,
-            "class_switch_cost >= 0 or None": self.class_switch_cost is None or self.class_switch_cost >= 0.0,
-            "0 <= duplicate_iou <= 1 or None": self.duplicate_iou is None or 0.0 <= self.duplicate_iou <= 1.0,
-            "max_abs_coord > 0": self.max_abs_coord > 0.0,
-            "std weights > 0": self.std_weight_position > 0
-            and self.std_weight_velocity > 0
-            and self.init_velocity_std > 0
-            and (self.std_weight_accel is None or self.std_weight_accel > 0),
-        }
-        bad = [name for name, ok in checks.items() if not ok]
-        if bad:
-            raise ValueError(f"invalid TrackerConfig: need {', '.join(bad)}")
+    @model_validator(mode="after")
+    def _score_bands(self) -> TrackerConfig:
+        if self.low_score > self.high_score:
+            raise ValueError(f"need low_score <= high_score, got {self.low_score} > {self.high_score}")
+        return self
 
 
 @dataclass
@@ -465,6 +452,29 @@ _TENTATIVE, _CONFIRMED, _LOST = int(TrackState.TENTATIVE), int(TrackState.CONFIR
 _NO_ROWS = np.zeros(0, dtype=np.intp)
 
 
+@dataclass(slots=True)
+class _FrameDetections:
+    """One frame's detections as association sees them (``Tracker._prepare``), M rows."""
+
+    boxes: np.ndarray  # (M, 4) xyxy px
+    scores: np.ndarray  # (M,)
+    classes: np.ndarray  # (M,) class ids
+    evidence: np.ndarray  # (M, W) class evidence (``Tracker._class_evidence``), duplicates folded in
+    orig_index: np.ndarray | None  # (M,) row in the input ``Detections``; None: the same rows
+    feats: np.ndarray | None  # (M, D) unit appearance features (NaN rows: none), or None
+
+
+class _Matches(NamedTuple):
+    """Matched (track row, detection row) pairs, in match order."""
+
+    trk: np.ndarray
+    det: np.ndarray
+    jumped: np.ndarray | None  # (K,) appearance re-identifications (filter restarts); None without appearance
+
+
+_NO_MATCHES = _Matches(_NO_ROWS, _NO_ROWS, None)
+
+
 def _empty_tracks() -> Tracks:
     i = np.zeros(0, dtype=np.int64)
     return Tracks._trusted(
@@ -617,6 +627,10 @@ class Tracker:
     def update(self, detections: Detections, features: np.ndarray | None = None) -> Tracks:
         """Advance one frame with this frame's detections; return the tracks to output.
 
+        The steps of the module docstring, in order: ``_prepare``, ``_predict``,
+        ``_associate_high``, ``_associate_low``, ``_apply_matches``, ``_prune``, ``_birth``,
+        ``_output``.
+
         Args:
             detections: this frame's detections (invalid rows are dropped and counted).
             features: optional (N, D) appearance embeddings, one row per detection;
@@ -624,6 +638,35 @@ class Tracker:
         """
         cfg = self.config
         self.frame_count += 1
+        d = self._prepare(detections, features)
+        n = self._predict()
+        m = len(d.boxes)
+        if m == 0:
+            if n:
+                self._prune(n)
+            return self._output()
+        meas = _cxcywh(d.boxes)  # [cx, cy, w, h]
+        is_high = d.scores >= cfg.high_score
+        high = is_high.nonzero()[0]
+        all_high = len(high) == m
+        low = _NO_ROWS if all_high else ((d.scores >= cfg.low_score) & ~is_high).nonzero()[0]
+        matches, unmatched_high = _NO_MATCHES, high
+        if n:
+            iou = self._association_iou(n, d.boxes, meas)
+            if len(high):
+                matches, unmatched_high = self._associate_high(iou, d, high, all_high)
+            if len(low):
+                matches = self._associate_low(iou, d, low, matches)
+        if len(matches.trk):
+            self._apply_matches(matches, d, meas)
+        if n:
+            self._prune(n)
+        self._birth(unmatched_high, d, meas)
+        return self._output()
+
+    def _prepare(self, detections: Detections, features: np.ndarray | None) -> _FrameDetections:
+        """Step 1: drop invalid detections and fold duplicates into their leaders (both counted)."""
+        cfg = self.config
         boxes, scores, classes = detections.xyxy, detections.score, detections.class_id
         feats = self._clean_features(features, len(boxes)) if cfg.reid_weight > 0 else None
         orig_index = None  # row in ``detections`` of each valid row (None: the same rows)
@@ -644,83 +687,10 @@ class Tracker:
                 boxes, scores, classes, evidence = boxes[lead], scores[lead], classes[lead], evidence[lead]
                 if feats is not None:
                     feats = feats[lead]
-
-        n = self._predict()
-        m = len(boxes)
-        if m == 0:
-            if n:
-                self._misses(n)
-            return self._output()
-        meas = _cxcywh(boxes)  # [cx, cy, w, h]
-        is_high = scores >= cfg.high_score
-        high = is_high.nonzero()[0]
-        all_high = len(high) == m
-        low = _NO_ROWS if all_high else ((scores >= cfg.low_score) & ~is_high).nonzero()[0]
-        trk = det = _NO_ROWS  # matched pairs (track row, detection), in match order
-        jumped = None
-        unmatched_high = high
-        if n:
-            ints = self._ints[:n]
-            if cfg.min_match_size > 0 or cfg.match_buffer > 0:
-                grow = cfg.min_match_size, cfg.match_buffer
-                pb = grow_boxes(boxes, *grow)
-                iou = _iou(grow_boxes(self._x[:n] @ _STATE_TO_XYXY, *grow), pb, box_area(pb))
-            else:
-                iou = _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
-            trk_class = ints[:, _CLASS]
-
-            # Stage 1: high-score detections against every track.
-            if len(high):
-                iou1 = iou if all_high else iou.take(high, axis=1)
-                ok = iou1 >= cfg.match_iou
-                cost = 1.0 - iou1
-                if feats is not None:
-                    cost, ok = self._appearance(cost, ok, feats.take(high, axis=0), ints[:, _STATE] == _LOST)
-                if cfg.per_class:
-                    cost, ok = self._class_gate(cost, ok, trk_class, classes if all_high else classes.take(high))
-                trk, cols = self._assign(cost, ok)
-                det = cols if all_high else high.take(cols)
-                if feats is not None:
-                    # A match below the IoU gate is an appearance re-identification:
-                    # the motion model was wrong, so the filter restarts at the detection.
-                    jumped = iou1[trk, cols] < cfg.match_iou
-                if len(cols) == len(high):
-                    unmatched_high = _NO_ROWS
-                elif len(cols):
-                    free = np.ones(len(high), dtype=bool)
-                    free[cols] = False
-                    unmatched_high = high[free]
-
-            # Stage 2: low-score detections against the confirmed tracks left over.
-            if len(low):
-                rest = ints[:, _STATE] == _CONFIRMED
-                rest[trk] = False
-                rest = rest.nonzero()[0]
-                if len(rest):
-                    iou2 = iou.take(rest, axis=0).take(low, axis=1)
-                    ok = iou2 >= cfg.second_match_iou
-                    cost2 = 1.0 - iou2
-                    if cfg.per_class:
-                        cost2, ok = self._class_gate(cost2, ok, trk_class.take(rest), classes.take(low))
-                    rows, cols = self._assign(cost2, ok)
-                    if len(rows):
-                        trk, det = np.concatenate([trk, rest.take(rows)]), np.concatenate([det, low.take(cols)])
-                        if jumped is not None:
-                            jumped = np.concatenate([jumped, np.zeros(len(rows), dtype=bool)])
-
-        if len(trk):
-            self._apply_matches(trk, det, jumped, meas, scores, classes, evidence, orig_index, feats)
-        if n:
-            self._misses(n)
-        new = unmatched_high
-        if cfg.new_track_score > cfg.high_score:
-            new = new[scores.take(new) >= cfg.new_track_score]
-        if len(new):
-            self._birth(new, meas, scores, classes, evidence, orig_index, feats)
-        return self._output()
+        return _FrameDetections(boxes, scores, classes, evidence, orig_index, feats)
 
     def _predict(self) -> int:
-        """Predict every track one frame; drop filters that are no longer finite. Returns n."""
+        """Step 2: predict every track one frame; drop filters that are no longer finite. Returns n."""
         n = self._n
         if n:
             x, P = self._x[:n], self._P[:n]
@@ -733,19 +703,76 @@ class Tracker:
                 n = self._n
         return n
 
-    def _apply_matches(
-        self,
-        trk: np.ndarray,
-        det: np.ndarray,
-        jumped: np.ndarray | None,
-        meas: np.ndarray,
-        scores: np.ndarray,
-        classes: np.ndarray,
-        evidence: np.ndarray,
-        orig_index: np.ndarray | None,
-        feats: np.ndarray | None,
-    ) -> None:
+    def _association_iou(self, n: int, boxes: np.ndarray, meas: np.ndarray) -> np.ndarray:
+        """(n, M) IoU of the n predicted tracks and the detections, on buffered, floored boxes
+        (``match_buffer``, ``min_match_size``); ``meas`` are the detections as cxcywh."""
+        cfg = self.config
+        if cfg.min_match_size > 0 or cfg.match_buffer > 0:
+            grow = cfg.min_match_size, cfg.match_buffer
+            pb = grow_boxes(boxes, *grow)
+            return _iou(grow_boxes(self._x[:n] @ _STATE_TO_XYXY, *grow), pb, box_area(pb))
+        return _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
+
+    def _associate_high(
+        self, iou: np.ndarray, d: _FrameDetections, high: np.ndarray, all_high: bool
+    ) -> tuple[_Matches, np.ndarray]:
+        """Step 3, stage 1: high-score detections (rows ``high``) against every track; returns the
+        matches and the high rows left unmatched.
+
+        Cost ``1 - IoU`` gated at ``match_iou``; with appearance (``_appearance``) the
+        cosine distance is mixed in and a lost track may be recovered outside the IoU gate,
+        within the same optimal assignment (``jumped``: its filter restarts at the detection).
+        """
+        cfg = self.config
+        ints = self._ints[: len(iou)]
+        iou1 = iou if all_high else iou.take(high, axis=1)
+        ok = iou1 >= cfg.match_iou
+        cost = 1.0 - iou1
+        if d.feats is not None:
+            cost, ok = self._appearance(cost, ok, d.feats.take(high, axis=0), ints[:, _STATE] == _LOST)
+        if cfg.per_class:
+            cost, ok = self._class_gate(cost, ok, ints[:, _CLASS], d.classes if all_high else d.classes.take(high))
+        trk, cols = self._assign(cost, ok)
+        det = cols if all_high else high.take(cols)
+        # A match below the IoU gate is an appearance re-identification:
+        # the motion model was wrong, so the filter restarts at the detection.
+        jumped = iou1[trk, cols] < cfg.match_iou if d.feats is not None else None
+        if len(cols) == len(high):
+            unmatched = _NO_ROWS
+        elif len(cols):
+            free = np.ones(len(high), dtype=bool)
+            free[cols] = False
+            unmatched = high[free]
+        else:
+            unmatched = high
+        return _Matches(trk, det, jumped), unmatched
+
+    def _associate_low(self, iou: np.ndarray, d: _FrameDetections, low: np.ndarray, matches: _Matches) -> _Matches:
+        """Step 4, stage 2: low-score detections (rows ``low``) against the confirmed tracks
+        stage 1 left over, IoU only (gated at ``second_match_iou``); returns ``matches`` extended."""
+        cfg = self.config
+        ints = self._ints[: len(iou)]
+        rest = ints[:, _STATE] == _CONFIRMED
+        rest[matches.trk] = False
+        rest = rest.nonzero()[0]
+        if not len(rest):
+            return matches
+        iou2 = iou.take(rest, axis=0).take(low, axis=1)
+        ok = iou2 >= cfg.second_match_iou
+        cost2 = 1.0 - iou2
+        if cfg.per_class:
+            cost2, ok = self._class_gate(cost2, ok, ints[:, _CLASS].take(rest), d.classes.take(low))
+        rows, cols = self._assign(cost2, ok)
+        if not len(rows):
+            return matches
+        trk, det, jumped = matches
+        if jumped is not None:
+            jumped = np.concatenate([jumped, np.zeros(len(rows), dtype=bool)])
+        return _Matches(np.concatenate([trk, rest.take(rows)]), np.concatenate([det, low.take(cols)]), jumped)
+
+    def _apply_matches(self, matches: _Matches, d: _FrameDetections, meas: np.ndarray) -> None:
         """Update the matched tracks (rows ``trk``, each once) with their detections ``det``, in pair order."""
+        trk, det, jumped = matches
         upd, det_upd = trk, det
         if jumped is not None and np.count_nonzero(jumped):
             self._x[trk[jumped]], self._P[trk[jumped]] = kf_initial_state(meas[det[jumped]], self._p_weights)
@@ -755,13 +782,13 @@ class Tracker:
                 self._x.take(upd, axis=0), self._P.take(upd, axis=0), meas.take(det_upd, axis=0),
                 self.config.std_weight_position,
             )
-        self._score[trk] = scores.take(det)
+        self._score[trk] = d.scores.take(det)
         ints = self._ints.take(trk, axis=0)
         ints[:, _HITS] += 1
         ints[:, _TSU] = 0
-        ints[:, _CLASS] = self._class_votes(trk, classes.take(det), evidence.take(det, axis=0), decay=True,
+        ints[:, _CLASS] = self._class_votes(trk, d.classes.take(det), d.evidence.take(det, axis=0), decay=True,
                                             current=ints[:, _CLASS])
-        ints[:, _DET] = det if orig_index is None else orig_index.take(det)
+        ints[:, _DET] = det if d.orig_index is None else d.orig_index.take(det)
         state = ints[:, _STATE]
         state[state == _LOST] = _CONFIRMED
         confirm = ((state == _TENTATIVE) & (ints[:, _HITS] >= self.config.min_hits)).nonzero()[0]
@@ -771,8 +798,8 @@ class Tracker:
             ints[confirm, _LIMIT] = self.max_lost_frames
             self._next_id += len(confirm)
         self._ints[trk] = ints
-        if feats is not None:
-            self._update_features(trk, feats[det])
+        if d.feats is not None:
+            self._update_features(trk, d.feats[det])
 
     def _update_features(self, trk: np.ndarray, f: np.ndarray) -> None:
         """Moving-average the features of tracks ``trk`` with their detections' features f (NaN rows skipped)."""
@@ -851,7 +878,7 @@ class Tracker:
         keep = votes[idx, best] <= self.config.class_hysteresis * votes[idx, current + 1]
         return np.where(keep, current, best - 1)
 
-    def _misses(self, n: int) -> None:
+    def _prune(self, n: int) -> None:
         """Tracks among the first n rows not matched this frame: remove the expired, the others turn lost."""
         ints = self._ints[:n]
         tsu = ints[:, _TSU]
@@ -864,30 +891,27 @@ class Tracker:
         if np.count_nonzero(drop):
             self._keep(~drop)
 
-    def _birth(
-        self,
-        new: np.ndarray,
-        meas: np.ndarray,
-        scores: np.ndarray,
-        classes: np.ndarray,
-        evidence: np.ndarray,
-        orig_index: np.ndarray | None,
-        feats: np.ndarray | None,
-    ) -> None:
-        """Start tentative tracks at detections ``new``, appended in this order."""
+    def _birth(self, unmatched_high: np.ndarray, d: _FrameDetections, meas: np.ndarray) -> None:
+        """Step 5: start tentative tracks at the unmatched high-score detections scoring at
+        least ``new_track_score``, appended in row order."""
+        new = unmatched_high
+        if self.config.new_track_score > self.config.high_score:
+            new = new[d.scores.take(new) >= self.config.new_track_score]
+        if not len(new):
+            return
         n, k = self._n, len(new)
         if n + k > len(self._x):
             self._alloc(max(2 * len(self._x), n + k))
         rows = slice(n, n + k)
         self._x[rows], self._P[rows] = kf_initial_state(meas.take(new, axis=0), self._p_weights)
-        self._score[rows] = scores.take(new)
+        self._score[rows] = d.scores.take(new)
         ints = self._ints[rows]
         ints[:] = self._newborn  # age 0, one hit, tentative, no id
-        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), classes.take(new), evidence.take(new, axis=0),
+        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), d.classes.take(new), d.evidence.take(new, axis=0),
                                             decay=False)
-        ints[:, _DET] = new if orig_index is None else orig_index.take(new)
-        if feats is not None:
-            f = feats[new]
+        ints[:, _DET] = new if d.orig_index is None else d.orig_index.take(new)
+        if d.feats is not None:
+            f = d.feats[new]
             self._features_of_dim(f.shape[1])[rows] = np.where(np.isfinite(f).all(axis=1, keepdims=True), f, np.nan)
         elif self._feat is not None:
             self._feat[rows] = np.nan

@@ -3,8 +3,9 @@
 A highway-env ``IDMVehicle`` (lane changes off) so traffic reacts to it and
 its collisions are checked by the same code as everyone else's. Longitudinal
 control: ``cruise`` (hold the set speed, ignoring others), ``idm`` (IDM car
-following) or ``profile`` (track a scripted speed profile). ``brake_command``
-(m/s^2, >= 0) overrides all of them; the AEB sets it.
+following) or ``profile`` (track a scripted speed profile). ``accel_command``
+(m/s^2, an external controller's, e.g. a gym agent's) replaces the controller while
+set; ``brake_command`` (m/s^2, >= 0) overrides both; the AEB sets it.
 """
 
 from __future__ import annotations
@@ -54,7 +55,8 @@ class EgoVehicle(IDMVehicle):
         self.diagonal = float(np.hypot(spec.length, spec.width))
         self.spec = spec
         self.t = 0.0
-        self.brake_command: float | None = None
+        self.accel_command: float | None = None  # m/s^2; replaces the controller while set
+        self.brake_command: float | None = None  # m/s^2 (>= 0); overrides every other command
         self.hits: list = []  # partners of collisions since the last world step
         prof = np.asarray(spec.profile, dtype=np.float64).reshape(-1, 2)
         self._profile = prof[np.argsort(prof[:, 0])] if len(prof) else prof
@@ -81,7 +83,10 @@ class EgoVehicle(IDMVehicle):
             return
         steering = float(np.clip(self.steering_control(self.target_lane_index),
                                  -self.MAX_STEERING_ANGLE, self.MAX_STEERING_ANGLE))
-        accel = self.longitudinal_accel()
+        if self.accel_command is None:
+            accel = self.longitudinal_accel()
+        else:  # an external command, limited as the controllers are
+            accel = float(np.clip(self.accel_command, *ACCEL_LIMITS))
         if self.brake_command is not None:
             accel = -abs(self.brake_command)
         if self.speed <= 0.0 and accel < 0.0:

@@ -1,19 +1,18 @@
 """A gymnasium environment around the closed-loop ``Runner``.
 
-One env step is one camera frame: the agent's longitudinal acceleration is
-applied for ``runner.frame_every`` world ticks, then the camera (if on),
-ground truth and the perception stack run and the observation is built from
+One env step is one camera frame: ``Runner.step(accel)`` applies the agent's
+longitudinal acceleration for ``runner.frame_every`` world ticks, then the camera
+(if on), ground truth and the perception stack run and the observation is built from
 the perception *tracks* (not ground truth, which is only in ``info``).
 
 Action: ``Box(-8, 3, (1,), float32)``, the ego's longitudinal acceleration
 (m/s^2); with ``discrete=True`` a ``Discrete(5)`` index into
 ``DISCRETE_ACCELS`` = [-8, -4, 0, 1.5, 3]. The action replaces the scenario's
-ego controller: the env binds a function returning the action to the ego
-*instance's* ``longitudinal_accel`` (a per-instance monkeypatch; ``sim/ego.py``
-is unchanged). ``EgoVehicle.act`` still applies ``brake_command`` (AEB) on
-top, never lets braking reverse the ego, and keeps lane-centring steering. An agent that
-wants actions in [-1, 1] (as many RL libraries advise) wraps the env with gymnasium's
-``RescaleAction(env, np.float32(-1), np.float32(1))``: -1 brakes at -8, 1 accelerates at 3.
+ego controller (``EgoVehicle.accel_command``); ``EgoVehicle.act`` still applies
+``brake_command`` (AEB) on top, never lets braking reverse the ego, and keeps lane-centring
+steering. An agent that wants actions in [-1, 1] (as many RL libraries advise) wraps the env
+with gymnasium's ``RescaleAction(env, np.float32(-1), np.float32(1))``: -1 brakes at -8, 1
+accelerates at 3.
 
 Observation (``Dict``):
 
@@ -36,11 +35,11 @@ Reward per step (``dt`` = the frame period, s)::
                                              # thw = range / speed (perception estimate)
       - 10          on a collision           # new ego collision in this step
 
-``terminated`` on an ego collision; ``truncated`` when the scenario's
-``duration`` is reached. ``info``: ``t``, ``ground_truth``
-(``GroundTruth.to_dict()``), ``assessment`` (``Assessment.to_dict()``),
-``alerts`` (list of ``Alert.to_dict()``), ``collisions`` (list of
-``Collision.to_dict()``), ``aeb_braking`` and ``reward_terms``.
+``terminated`` on an ego collision (whatever the scenario's ``end_on_collision``: the
+env's runner ends on one); ``truncated`` when the scenario's ``duration`` is reached.
+``info``: ``t``, ``ground_truth`` (``GroundTruth.to_dict()``), ``assessment``
+(``Assessment.to_dict()``), ``alerts`` (list of ``Alert.to_dict()``), ``collisions`` (list
+of ``Collision.to_dict()``), ``aeb_braking`` and ``reward_terms``.
 
 Choices through ``gym.make(id, ...)``: ``scenario`` (YAML path or ``Scenario``),
 ``render_camera``, ``detector`` (``gt`` noise model; ``onnx``, the shipped model on the
@@ -48,9 +47,10 @@ camera image; ``scenario``, whatever the scenario says), ``weather`` (a kind suc
 ``"fog"`` or a ``WeatherSpec`` mapping), ``aeb`` (bool or ``AebConfig`` fields),
 ``max_objects``, ``discrete``, ``render_mode``.
 
-``reset(seed=s)`` rebuilds the ``Runner`` with the scenario's seed replaced by
-``s`` (same seed + same actions -> identical observations); ``reset()`` with no
-seed reuses the last seed (initially the scenario's).
+``reset(seed=s)`` rebuilds the ``Runner`` with the scenario's seed replaced by ``s`` (same
+seed + same actions -> identical observations; the first observation is ``Runner.observe()``
+at t = 0); ``reset()`` with no seed reuses the last seed (initially the scenario's). The env's
+``aeb`` choice replaces the scenario's ``ego.aeb`` in its runner's copy of the scenario.
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ import numpy as np
 from gymnasium import spaces
 
 from lookahead.intent.labels import risk_colour
-from lookahead.sim.aeb import Aeb, AebConfig
+from lookahead.sim.aeb import AebConfig
 from lookahead.sim.birdseye import birdseye
 from lookahead.sim.catalogue import SCENARIOS
 from lookahead.sim.runner import Perceived, Runner
@@ -145,24 +145,15 @@ class LookaheadEnv(gymnasium.Env):
     # ------------------------------------------------------------------ helpers
     def _build(self, seed: int) -> None:
         self._close_runner()
-        sc = self.scenario.model_copy(update={"seed": int(seed)})
-        runner = Runner(sc, render=self.render_camera)
-        runner.aeb = Aeb(self.aeb_config) if self.use_aeb else None
-        ego = runner.world.ego
-        # The agent's command replaces the controller (per-instance override, see module doc).
-        ego.longitudinal_accel = lambda: float(self._accel_cmd)
-        self.runner = runner
+        # The env's AEB setting replaces the scenario's, and a collision ends the episode.
+        ego = self.scenario.ego.model_copy(update={"aeb": self.aeb_config or False})
+        sc = self.scenario.model_copy(update={"seed": int(seed), "ego": ego, "end_on_collision": True})
+        self.runner = Runner(sc, render=self.render_camera)
 
     def _accel_of(self, action: Any) -> float:
         if self.discrete:
             return DISCRETE_ACCELS[int(np.asarray(action).reshape(()))]
         return float(np.clip(np.asarray(action, dtype=np.float64).reshape(-1)[0], ACCEL_LOW, ACCEL_HIGH))
-
-    def _perceive(self) -> Perceived:
-        p = self.runner.perceive()
-        self.runner.frame_index += 1
-        self._last = p
-        return p
 
     def _track_rows(self, p: Perceived) -> np.ndarray:
         est, a, tracks = p.est, p.assessment, p.tracks
@@ -222,7 +213,7 @@ class LookaheadEnv(gymnasium.Env):
         self._build(self._seed)
         self._accel_cmd = 0.0
         self._prev_accel = 0.0
-        p = self._perceive()
+        p = self._last = self.runner.observe()
         self._prev_accel = float(p.frame.odometry.accel)
         return self._obs(p), self._info(p, [])
 
@@ -231,17 +222,10 @@ class LookaheadEnv(gymnasium.Env):
             raise RuntimeError("call reset() before step()")
         r, sc = self.runner, self.scenario
         self._accel_cmd = self._accel_of(action)
-        collisions: list = []
-        n_end = int(round(sc.duration * sc.rate))
-        for _ in range(r.frame_every):
-            if r.world.tick >= n_end:
-                break
-            if r.aeb is not None:
-                r.world.ego.brake_command = r.aeb.command(r.world.t)
-            collisions += r.world.step()
-            if collisions:
-                break
-        p = self._perceive()
+        result = r.step(self._accel_cmd)
+        # A duration that is no whole number of frames ends between frames: observe the last tick.
+        p = self._last = result.perceived if result.perceived is not None else r.observe(result.collisions)
+        collisions = result.collisions
         od = p.frame.odometry
         dt = r.frame_every / sc.rate
         jerk = (od.accel - self._prev_accel) / dt
@@ -256,7 +240,7 @@ class LookaheadEnv(gymnasium.Env):
         }
         reward = float(sum(terms.values()))
         terminated = bool(collisions)
-        truncated = not terminated and r.world.tick >= n_end
+        truncated = not terminated and r.world.tick >= r.n_ticks
         return self._obs(p), reward, terminated, truncated, self._info(p, collisions, terms)
 
     def render(self):

@@ -1,35 +1,43 @@
 """The closed-loop runner: world -> camera -> ground truth -> perception -> sinks.
 
-The world steps at the scenario ``rate``; every ``rate / camera.rate`` ticks
-the camera renders a ``Frame``, ground truth is computed, the detector runs,
-and a ``TickRecord`` goes to every sink. Sinks are injected (observers) so
-``sim`` never imports ``tools``. Each stage is timed (ms).
+The world steps at the scenario ``rate``; every ``frame_every = rate / camera.rate`` ticks
+the camera renders a ``Frame``, ground truth is computed, the perception + intent stack
+(``intent.stack``, built by ``build_stack`` from the scenario's settings) runs, the AEB
+decides, and a ``TickRecord`` goes to every sink. ``Runner.step`` advances one camera
+frame (the gym env steps with it); ``Runner.run`` loops over it to the end. Sinks are
+injected (observers) so ``sim`` never imports ``tools``. Each stage is timed (ms).
+
+``PerceptionStack``, ``build_detector``, ``resolve_detector`` and ``DEFAULT_MODEL`` live in
+``intent.stack`` / ``perception.config`` and are re-exported here for older imports.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from lookahead.intent.alerts import Alert, AlertConfig, AlertManager
+from lookahead.intent import stack as _stack
+from lookahead.intent.alerts import Alert
 from lookahead.intent.config import IntentConfig
-from lookahead.intent.labels import Assessment, Kinematics, Risk, assess
+from lookahead.intent.labels import Assessment
+from lookahead.intent.stack import PerceptionStack, build_stack, resolve_detector  # noqa: F401  (re-exported)
 from lookahead.perception.camera import CameraModel
+from lookahead.perception.config import DEFAULT_MODEL, DetectorSpec, SettingsError  # noqa: F401  (re-exported)
 from lookahead.perception.detections import Detections
 from lookahead.perception.detectors.base import Detector, DetectorTruth
-from lookahead.perception.estimator import Estimates, Estimator, EstimatorConfig
+from lookahead.perception.estimator import Estimates
 from lookahead.perception.frame import Frame
-from lookahead.perception.preprocess import PreprocessChain
-from lookahead.perception.tracker import Tracker, TrackerConfig, Tracks
+from lookahead.perception.tracker import Tracks
 from lookahead.sim.aeb import Aeb
-from lookahead.sim.catalogue import DEFAULT_MODEL
+from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
 from lookahead.sim.records import Sink, TickRecord
-from lookahead.sim.scenario import DetectorSpec, Scenario, ScenarioError
+from lookahead.sim.scenario import Scenario, ScenarioError
 from lookahead.sim.world import World
 
 log = logging.getLogger(__name__)
@@ -46,25 +54,21 @@ def camera_from_scenario(scenario: Scenario) -> CameraModel:
     )
 
 
-def resolve_detector(spec: DetectorSpec, render: bool) -> DetectorSpec:
-    """``kind: auto`` made concrete: the shipped ONNX model when frames are rendered, else ``gt``."""
-    kind = spec.kind if spec.kind != "auto" else ("onnx" if render else "gt")
-    model = spec.model or (str(DEFAULT_MODEL) if kind == "onnx" else None)
-    return spec.model_copy(update={"kind": kind, "model": model})
+@contextmanager
+def _as_scenario_error() -> Iterator[None]:
+    """Settings the stack refuses (``SettingsError``) are the scenario's: re-raised as ``ScenarioError``."""
+    try:
+        yield
+    except ScenarioError:
+        raise
+    except SettingsError as e:
+        raise ScenarioError(str(e)) from None
 
 
 def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detector:
-    """The scenario's detector (``gt`` noise model or an ``onnx`` model, see ``resolve_detector``)."""
-    spec = resolve_detector(spec, render)
-    if spec.kind == "onnx":
-        from lookahead.perception.detectors.onnx_detector import OnnxDetector
-
-        if not render:
-            raise ScenarioError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
-        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows)
-    from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
-
-    return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
+    """``intent.stack.build_detector`` with its errors as ``ScenarioError`` (a scenario's detector)."""
+    with _as_scenario_error():
+        return _stack.build_detector(spec, seed, render)
 
 
 def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
@@ -82,54 +86,6 @@ def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
     )
 
 
-class PerceptionStack:
-    """Preprocess -> detector -> tracker -> estimator -> intent for one camera; each stage timed (ms).
-
-    Knows nothing of the simulator: ``truth`` is only handed to simulated detectors.
-    ``preprocess`` (``perception.preprocess.PreprocessChain``) feeds the detector
-    only; ``frame.image`` stays the camera's image.
-    """
-
-    def __init__(
-        self, detector: Detector, camera: CameraModel, frame_rate: float, intent_config: IntentConfig,
-        tracker_config: TrackerConfig | None = None, estimator_config: EstimatorConfig | None = None,
-        alert_config: AlertConfig | None = None, preprocess: PreprocessChain | None = None,
-    ) -> None:
-        self.preprocess = preprocess or PreprocessChain()
-        self.detector = detector
-        self.tracker = Tracker(tracker_config, frame_rate=frame_rate)
-        self.estimator = Estimator(camera, estimator_config)
-        self.intent_config = intent_config
-        self.alerts = AlertManager(alert_config)
-
-    def process(
-        self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
-    ) -> tuple[Detections, Tracks, Estimates, Assessment, list[Alert]]:
-        tp = time.perf_counter()
-        image = self.preprocess(frame.image)
-        t0 = time.perf_counter()
-        dets = self.detector.detect(image, truth)
-        t1 = time.perf_counter()
-        tracks = self.tracker.update(dets)
-        t2 = time.perf_counter()
-        est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
-        t3 = time.perf_counter()
-        kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
-        assessment = assess(kin, self.intent_config, frame.odometry.speed, frame.odometry.yaw_rate)
-        alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
-        t4 = time.perf_counter()
-        timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3,
-                       estimate=(t3 - t2) * 1e3, intent=(t4 - t3) * 1e3)
-        return dets, tracks, est, assessment, alerts
-
-    def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
-        """Whether a CRITICAL alert is on for an in-path track, and the nearest in-path range (m)."""
-        active = self.alerts.active()
-        crit = any(active.get(int(t), 0) >= Risk.CRITICAL and a.in_path[i] for i, t in enumerate(tracks.track_id))
-        rng = est.range[a.in_path & np.isfinite(est.range)]
-        return crit, float(rng.min()) if len(rng) else float("inf")
-
-
 @dataclass
 class Perceived:
     """One camera frame, its ground truth, and what the perception stack made of it."""
@@ -142,6 +98,17 @@ class Perceived:
     assessment: Assessment
     alerts: list[Alert]
     timings: dict[str, float]  # ms per stage
+
+
+@dataclass
+class StepResult:
+    """What one ``Runner.step`` did."""
+
+    perceived: Perceived | None  # the camera frame the step ended on; None: the run ended between frames
+    collisions: list[Collision]  # ego collisions that began during the step
+    ticks: int  # world ticks advanced
+    ended_on_collision: bool  # a collision ended the run (``end_on_collision``)
+    done: bool  # the run is over: ended on a collision, or its last tick is reached
 
 
 @dataclass
@@ -167,7 +134,12 @@ class RunSummary:
 
 
 class Runner:
-    """Runs one scenario in closed loop and feeds every frame to the sinks."""
+    """Runs one scenario in closed loop and feeds every camera frame to the sinks.
+
+    ``run()`` runs it to the end; ``step()`` advances one camera frame at a time (an external
+    controller may command the ego's acceleration), ``observe()`` records the current state
+    as a frame without advancing (the gym env's first observation).
+    """
 
     def __init__(
         self,
@@ -183,12 +155,11 @@ class Runner:
         self.world = World(scenario)
         self.camera = camera_from_scenario(scenario)
         self.intent_config = intent_config or IntentConfig().with_overrides(scenario.intent)
-        p = scenario.perception
-        self.perception = PerceptionStack(
-            detector or build_detector(p.detector, scenario.seed, render), self.camera, scenario.camera.rate,
-            self.intent_config, TrackerConfig(**p.tracker), EstimatorConfig(**p.estimator),
-            alert_config=scenario.alerts, preprocess=PreprocessChain(p.preprocess),
-        )
+        with _as_scenario_error():
+            self.perception = build_stack(
+                scenario.perception, self.camera, scenario.camera.rate, intent=self.intent_config,
+                alerts=scenario.alerts, detector=detector, seed=scenario.seed, render=render,
+            )
         self.renderer = None
         self.weather = None  # sim.weather.Weather: applied to the rendered RGB (not clear)
         if render:
@@ -207,8 +178,9 @@ class Runner:
                     scenario, self.camera, self.world.layout, far=self.renderer.far
                 )
         self.aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
-        self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))
-        self.frame_index = 0
+        self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))  # world ticks per frame
+        self.n_ticks = int(round(scenario.duration * scenario.rate))  # world ticks of the whole run
+        self.frame_index = 0  # index of the next camera frame
 
     def _poses(self) -> dict[int, tuple[float, float, float, float]]:
         st = self.world.agent_states()
@@ -247,29 +219,21 @@ class Runner:
         return frame, gt, timings
 
     def run(self, progress: Callable[[float], None] | None = None) -> RunSummary:
+        """Step to the end (the duration, or a collision with ``end_on_collision``); ``progress``
+        gets the fraction of the duration done after every step. Sinks get ``on_start``, every
+        frame and ``on_end`` (also when an exception ends the run: its ``error``); closes the runner."""
         sc = self.scenario
-        n_ticks = int(round(sc.duration * sc.rate))
-        info = {"scenario": sc.name, "seed": sc.seed, "ticks": n_ticks,
+        info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
                 "renderer": getattr(self.renderer, "backend", None)}
         for s in self.sinks:
             s.on_start(info)
         summary = RunSummary(0, 0, 0.0, renderer=info["renderer"])
-        sim_ms = 0.0
-        new_collisions: list = []
         try:
-            for _ in range(n_ticks):
-                t0 = time.perf_counter()
-                if self.aeb is not None:
-                    self.world.ego.brake_command = self.aeb.command(self.world.t)
-                new_collisions += self.world.step()
-                sim_ms += (time.perf_counter() - t0) * 1e3
-                ended = bool(new_collisions) and sc.end_on_collision
-                if self.world.tick % self.frame_every == 0 or ended:
-                    self._emit(sim_ms, new_collisions)
-                    sim_ms, new_collisions = 0.0, []
+            while self.world.tick < self.n_ticks:
+                result = self.step()
                 if progress is not None:
                     progress(self.world.t / sc.duration)
-                if ended:
+                if result.ended_on_collision:
                     summary.ended_on_collision = True
                     break
         except BaseException as e:  # told to the sinks (an incomplete run), then re-raised
@@ -283,20 +247,43 @@ class Runner:
             self.close()
         return summary
 
-    def perceive(self) -> Perceived:
-        """The current camera frame through the perception stack, and the AEB's decision on it.
+    def step(self, accel: float | None = None) -> StepResult:
+        """Advance to the next camera frame and ``observe`` it.
 
-        Leaves ``frame_index`` for the caller to advance once the frame is recorded."""
-        frame, gt, timings = self.frame()
-        dets, tracks, est, assessment, alerts = self.perception.process(
-            frame, detector_truth(gt, self.camera), timings
-        )
-        if self.aeb is not None:
-            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
-            self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
-        return Perceived(frame, gt, dets, tracks, est, assessment, alerts, timings)
+        World ticks, each the AEB's brake command then ``World.step``, until a frame tick
+        (``tick % frame_every == 0``) or a collision that ends the run (``end_on_collision``),
+        which are observed, or the run's last tick (``n_ticks``) between frames, which is not.
 
-    def _emit(self, sim_ms: float, collisions: list) -> None:
+        Args:
+            accel: the ego's longitudinal acceleration (m/s^2) for these ticks, replacing its
+                controller (``EgoVehicle.accel_command``; the AEB still overrides it); None = the
+                scenario's controller.
+        """
+        w = self.world
+        w.ego.accel_command = accel
+        collisions: list[Collision] = []
+        sim_ms, ticks = 0.0, 0
+        while w.tick < self.n_ticks:
+            t0 = time.perf_counter()
+            if self.aeb is not None:
+                w.ego.brake_command = self.aeb.command(w.t)
+            collisions += w.step()
+            sim_ms += (time.perf_counter() - t0) * 1e3
+            ticks += 1
+            ended = bool(collisions) and self.scenario.end_on_collision
+            if w.tick % self.frame_every == 0 or ended:
+                perceived = self.observe(collisions, sim_ms)
+                return StepResult(perceived, collisions, ticks, ended, ended or w.tick >= self.n_ticks)
+        return StepResult(None, collisions, ticks, False, True)
+
+    def observe(self, collisions: Sequence[Collision] = (), sim_ms: float = 0.0) -> Perceived:
+        """The world's current state as the next camera frame: perceived (``perceive``), recorded
+        to every sink as a ``TickRecord``; advances ``frame_index``.
+
+        Args:
+            collisions: ego collisions since the previous frame (they go into the record).
+            sim_ms: time spent stepping the world since the previous frame (ms, stage ``sim``).
+        """
         t_start = time.perf_counter()
         p = self.perceive()
         frame, timings = p.frame, p.timings
@@ -316,6 +303,20 @@ class Runner:
         timings["sinks"] = (time.perf_counter() - t0) * 1e3
         timings["tick"] = sim_ms + (time.perf_counter() - t_start) * 1e3
         self.frame_index += 1
+        return p
+
+    def perceive(self) -> Perceived:
+        """The current camera frame through the perception stack, and the AEB's decision on it.
+
+        Records nothing and leaves ``frame_index`` alone: ``observe`` does both."""
+        frame, gt, timings = self.frame()
+        dets, tracks, est, assessment, alerts = self.perception.process(
+            frame, detector_truth(gt, self.camera), timings
+        )
+        if self.aeb is not None:
+            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
+            self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
+        return Perceived(frame, gt, dets, tracks, est, assessment, alerts, timings)
 
     def close(self) -> None:
         if self.renderer is not None:

@@ -8,12 +8,6 @@ longitudinal distance ahead of the ego at t = 0. See docs/scenarios.md.
 
 from __future__ import annotations
 
-import dataclasses
-import inspect
-import re
-import typing
-from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -23,22 +17,24 @@ from pydantic import (
     ConfigDict,
     Field,
     ValidationError,
-    create_model,
     field_validator,
     model_serializer,
     model_validator,
 )
-from pydantic_core import PydanticCustomError, core_schema
+from pydantic_core import PydanticCustomError
 
 from lookahead.intent.alerts import AlertConfig
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Risk
+from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, PerceptionSpec, *Overrides: re-exported)
+    DetectorSpec,
+    EstimatorOverrides,
+    Overrides,
+    PerceptionSpec,
+    SettingsError,
+    TrackerOverrides,
+)
 from lookahead.perception.detections import CLASSES
-from lookahead.perception.detectors.gt_detector import GtNoiseConfig
-from lookahead.perception.detectors.windows import DEFAULT_WINDOWS, check_windows
-from lookahead.perception.estimator import EstimatorConfig
-from lookahead.perception.preprocess import PreprocessConfig
-from lookahead.perception.tracker import TrackerConfig
 from lookahead.sim.aeb import AebConfig
 from lookahead.sim.shapes import SUBTYPES
 
@@ -51,18 +47,10 @@ class Strict(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
-# --- overrides of the perception / intent configs -------------------------------------------
-# ``perception.tracker``, ``perception.estimator``, ``perception.detector.noise`` and ``intent``
-# stay plain mappings (what the runner, sweeps and run.json see), but are checked on load by
-# building the real config, so a typo is a located one-line error instead of a crash at run time.
-
-
-def _relocated(err: ValidationError, prefix: tuple) -> ValidationError:
-    """``err`` with ``prefix`` put in front of every error location."""
-    return ValidationError.from_exception_data(err.title, [
-        {"type": e["type"], "loc": (*prefix, *e["loc"]), "input": e["input"], **({"ctx": e["ctx"]} if "ctx" in e else {})}
-        for e in err.errors(include_url=False)
-    ])
+# --- overrides of the intent config ------------------------------------------------------------
+# ``intent`` stays a plain mapping (what the runner, sweeps and run.json see) checked on load by
+# building the real config, as ``perception.tracker`` / ``perception.estimator`` are
+# (``perception.config``): a typo is a located one-line error instead of a crash at run time.
 
 
 def _error_at(loc: tuple, msg: str, value: Any) -> ValidationError:
@@ -72,98 +60,12 @@ def _error_at(loc: tuple, msg: str, value: Any) -> ValidationError:
     )
 
 
-@dataclass(frozen=True)
-class _Overrides:
-    """Annotation of a ``dict`` field holding overrides of a config: ``check`` validates them
-    (raising the config's own ``ValidationError``, so errors carry the key's location) and
-    returns the dict to keep; the JSON Schema is that of ``model``. ``partial``: nested
-    mappings may be given in part (they are merged into the defaults, as ``intent`` is)."""
-
-    check: Callable[[dict], dict]
-    model: type[BaseModel]
-    partial: bool = False
-
-    def __get_pydantic_core_schema__(self, source: Any, handler: Any) -> Any:
-        return core_schema.no_info_after_validator_function(self.check, handler(source))
-
-    def __get_pydantic_json_schema__(self, schema: Any, handler: Any) -> Any:
-        js = handler(self.model.__pydantic_core_schema__)
-        if self.partial:
-            seen: set[str] = set()
-
-            def optional(node: Any) -> None:
-                if isinstance(node, dict):
-                    if "$ref" in node and node["$ref"] not in seen:
-                        seen.add(node["$ref"])
-                        optional(handler.resolve_ref_schema(node))
-                    node.pop("required", None)
-                    for v in node.values():
-                        optional(v)
-                elif isinstance(node, list):
-                    for v in node:
-                        optional(v)
-
-            optional(js)
-        return js
-
-
-#: ``perception.tracker.TrackerConfig`` (a dataclass whose ``__post_init__`` checks ranges) as
-#: a pydantic model: the same fields and defaults, these bounds, descriptions from its docstring.
-_TRACKER_BOUNDS: dict[str, dict[str, float]] = {
-    "match_iou": {"ge": 0, "le": 1}, "second_match_iou": {"ge": 0, "le": 1}, "min_hits": {"ge": 1},
-    "max_lost_s": {"ge": 0}, "output_lost_s": {"ge": 0}, "tentative_max_lost_frames": {"ge": 0},
-    "reid_weight": {"ge": 0, "le": 1}, "feature_momentum": {"ge": 0, "lt": 1}, "max_abs_coord": {"gt": 0},
-    "std_weight_position": {"gt": 0}, "std_weight_velocity": {"gt": 0}, "std_weight_accel": {"gt": 0},
-    "init_velocity_std": {"gt": 0},
-}
-
-
-def _attribute_docs(cls: type) -> dict[str, str]:
-    """The Google-style ``Attributes:`` descriptions of ``cls``'s docstring."""
-    out: dict[str, str] = {}
-    name = None
-    for line in (inspect.getdoc(cls) or "").partition("Attributes:")[2].splitlines():
-        if m := re.match(r"    (\w+): (.*)", line):
-            name = m[1]
-            out[name] = m[2].strip()
-        elif name and line.startswith("        "):
-            out[name] += " " + line.strip()
-        elif line.strip():
-            break
-    return out
-
-
-def _dataclass_model(cls: type, bounds: dict[str, dict[str, float]]) -> type[BaseModel]:
-    hints, docs = typing.get_type_hints(cls), _attribute_docs(cls)
-    fields = {
-        f.name: (hints[f.name], Field(f.default, description=docs.get(f.name), **bounds.get(f.name, {})))
-        for f in dataclasses.fields(cls)
-    }
-    return create_model(cls.__name__, __config__=ConfigDict(extra="forbid"), __doc__=cls.__doc__, **fields)
-
-
-_TrackerModel = _dataclass_model(TrackerConfig, _TRACKER_BOUNDS)
-
-
-def _check_tracker(v: dict) -> dict:
-    out = _TrackerModel.model_validate(v).model_dump(exclude_unset=True)  # coerced: the dataclass is not
-    TrackerConfig(**out)  # its cross-field checks (low_score <= high_score)
-    return out
-
-
-def _check_estimator(v: dict) -> dict:
-    EstimatorConfig.model_validate(v)
-    return v
-
-
 def _check_intent(v: dict) -> dict:
     IntentConfig().with_overrides(v)
     return v
 
 
-TrackerOverrides = Annotated[dict[str, Any], _Overrides(_check_tracker, _TrackerModel)]
-EstimatorOverrides = Annotated[dict[str, Any], _Overrides(_check_estimator, EstimatorConfig)]
-IntentOverrides = Annotated[dict[str, Any], _Overrides(_check_intent, IntentConfig, partial=True)]
+IntentOverrides = Annotated[dict[str, Any], Overrides(_check_intent, IntentConfig, partial=True)]
 
 
 class RoadSpec(Strict):
@@ -317,48 +219,6 @@ class WeatherSpec(Strict):
     @property
     def night_darkness(self) -> float:
         return 0.7 if self.intensity is None else float(self.intensity)
-
-
-class DetectorSpec(Strict):
-    kind: Literal["auto", "gt", "onnx"] = Field(
-        "auto", description="auto: onnx (the shipped model) when rendering, else gt"
-    )
-    model: str | None = Field(None, description="onnx model file; default models/lookahead-det.onnx")
-    conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score")
-    iou: float = Field(0.45, gt=0.0, le=1.0, description="onnx: per-class NMS IoU threshold")
-    windows: list[Annotated[tuple[float, ...], Field(min_length=4, max_length=5)]] = Field(
-        default_factory=lambda: list(DEFAULT_WINDOWS),
-        description="onnx: zoom windows x0, y0, x1, y1 (fractions of the image) and an optional zoom (model-input "
-        "px per image px; default: fit the model's input) the model also runs on, magnified; small objects whole "
-        "inside a window are the most magnified one's to detect (perception.detectors.windows). "
-        "Default: the middle half around the horizon (2x at 640 x 360); [] for the whole frame only",
-    )
-    noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")
-
-    @field_validator("windows", mode="after")
-    @classmethod
-    def _windows(cls, v: list[tuple[float, ...]]) -> list[tuple[float, ...]]:
-        return list(check_windows(v))  # ValueError: which window, what was expected
-
-
-class PerceptionSpec(Strict):
-    detector: DetectorSpec = Field(default_factory=DetectorSpec)
-    tracker: TrackerOverrides = Field(default_factory=dict, description="perception.tracker.TrackerConfig overrides")
-    estimator: EstimatorOverrides = Field(
-        default_factory=dict, description="perception.estimator.EstimatorConfig overrides"
-    )
-    preprocess: PreprocessConfig = Field(
-        default_factory=PreprocessConfig,
-        description="image preprocessing before the detector (perception.preprocess); default: none",
-    )
-
-    @model_validator(mode="after")
-    def _noise_model(self) -> PerceptionSpec:
-        try:  # the gt detector's noise model, checked whatever the detector kind
-            GtNoiseConfig.model_validate(self.detector.noise)
-        except ValidationError as e:
-            raise _relocated(e, ("detector", "noise")) from None
-        return self
 
 
 class StartSpec(Strict):
@@ -581,7 +441,7 @@ def with_detector(scenario: Scenario, kind: str | None, model: str | Path | None
     return scenario.model_copy(update={"perception": perception})
 
 
-class ScenarioError(ValueError):
+class ScenarioError(SettingsError):
     """A scenario that cannot be used; ``str()`` is one line naming file, field and problem."""
 
 

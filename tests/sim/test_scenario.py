@@ -81,6 +81,8 @@ BASE = "name: a\nactors:\n  - {id: p, type: pedestrian, start: {x: 20, y: 2}}\n"
         ("perception:\n  detector:\n    noise:\n      miss_rate: 3\n", "x.yaml:7", "perception.detector.noise.miss_rate"),
         ("perception:\n  tracker:\n    max_lost: 1.0\n", "x.yaml:6", "perception.tracker.max_lost"),
         ("perception:\n  tracker:\n    min_hits: 2\n    max_lost_s: -1\n", "x.yaml:7", "perception.tracker.max_lost_s"),
+        ("perception:\n  tracker:\n    class_hysteresis: 0.5\n", "x.yaml:6", "perception.tracker.class_hysteresis"),
+        ("perception:\n  tracker:\n    duplicate_iou: 1.5\n", "x.yaml:6", "perception.tracker.duplicate_iou"),
         ("perception:\n  estimator:\n    motion_model: kalman\n", "x.yaml:6", "perception.estimator.motion_model"),
         ("perception:\n  estimator:\n    edge_sigma_rell: 0.1\n", "x.yaml:6", "perception.estimator.edge_sigma_rell"),
         ("intent:\n  horizn: 3\n", "x.yaml:5", "intent.horizn"),

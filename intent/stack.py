@@ -1,0 +1,135 @@
+"""The perception + intent stack of one camera, and the one factory that builds it from settings.
+
+Per camera frame: preprocess -> detector -> tracker -> estimator -> ``intent.labels.assess``
+-> ``intent.alerts.AlertManager``, each stage timed (ms). The closed-loop runner, the gym
+env and replay all build it with ``build_stack`` from a scenario's ``perception``,
+``intent`` and ``alerts`` settings. It knows nothing of the simulator: importing this
+module loads neither highway-env, gymnasium nor PyBullet, so the stack runs on video too.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from lookahead.intent.alerts import Alert, AlertConfig, AlertManager
+from lookahead.intent.config import IntentConfig
+from lookahead.intent.labels import Assessment, Kinematics, Risk, assess
+from lookahead.perception.camera import CameraModel
+from lookahead.perception.config import DEFAULT_MODEL, DetectorSpec, PerceptionSpec, SettingsError
+from lookahead.perception.detections import Detections
+from lookahead.perception.detectors.base import Detector, DetectorTruth
+from lookahead.perception.estimator import Estimates, Estimator, EstimatorConfig
+from lookahead.perception.frame import Frame
+from lookahead.perception.preprocess import PreprocessChain
+from lookahead.perception.tracker import Tracker, TrackerConfig, Tracks
+
+
+def resolve_detector(spec: DetectorSpec, render: bool) -> DetectorSpec:
+    """``kind: auto`` made concrete: the shipped ONNX model when frames carry images (``render``), else ``gt``."""
+    kind = spec.kind if spec.kind != "auto" else ("onnx" if render else "gt")
+    model = spec.model or (str(DEFAULT_MODEL) if kind == "onnx" else None)
+    return spec.model_copy(update={"kind": kind, "model": model})
+
+
+def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detector:
+    """The detector of ``spec`` (``gt`` noise model seeded with ``seed``, or an ``onnx`` model, see
+    ``resolve_detector``); ``SettingsError`` for ``onnx`` without images (``render`` False)."""
+    spec = resolve_detector(spec, render)
+    if spec.kind == "onnx":
+        from lookahead.perception.detectors.onnx_detector import OnnxDetector
+
+        if not render:
+            raise SettingsError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
+        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows)
+    from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
+
+    return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
+
+
+class PerceptionStack:
+    """Preprocess -> detector -> tracker -> estimator -> intent for one camera; each stage timed (ms).
+
+    Knows nothing of the simulator: ``truth`` is only handed to simulated detectors.
+    ``preprocess`` (``perception.preprocess.PreprocessChain``) feeds the detector
+    only; ``frame.image`` stays the camera's image. Build it with ``build_stack``.
+    """
+
+    def __init__(
+        self, detector: Detector, camera: CameraModel, frame_rate: float, intent_config: IntentConfig,
+        tracker_config: TrackerConfig | None = None, estimator_config: EstimatorConfig | None = None,
+        alert_config: AlertConfig | None = None, preprocess: PreprocessChain | None = None,
+    ) -> None:
+        self.preprocess = preprocess or PreprocessChain()
+        self.detector = detector
+        self.tracker = Tracker(tracker_config, frame_rate=frame_rate)
+        self.estimator = Estimator(camera, estimator_config)
+        self.intent_config = intent_config
+        self.alerts = AlertManager(alert_config)
+
+    def process(
+        self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
+    ) -> tuple[Detections, Tracks, Estimates, Assessment, list[Alert]]:
+        """One frame through every stage; stage times (ms) go into ``timings``."""
+        tp = time.perf_counter()
+        image = self.preprocess(frame.image)
+        t0 = time.perf_counter()
+        dets = self.detector.detect(image, truth)
+        t1 = time.perf_counter()
+        tracks = self.tracker.update(dets)
+        t2 = time.perf_counter()
+        est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
+        t3 = time.perf_counter()
+        kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
+        assessment = assess(kin, self.intent_config, frame.odometry.speed, frame.odometry.yaw_rate)
+        alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
+        t4 = time.perf_counter()
+        timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3,
+                       estimate=(t3 - t2) * 1e3, intent=(t4 - t3) * 1e3)
+        return dets, tracks, est, assessment, alerts
+
+    def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
+        """Whether a CRITICAL alert is on for an in-path track, and the nearest in-path range (m)."""
+        active = self.alerts.active()
+        crit = any(active.get(int(t), 0) >= Risk.CRITICAL and a.in_path[i] for i, t in enumerate(tracks.track_id))
+        rng = est.range[a.in_path & np.isfinite(est.range)]
+        return crit, float(rng.min()) if len(rng) else float("inf")
+
+
+def build_stack(
+    perception: PerceptionSpec,
+    camera: CameraModel,
+    frame_rate: float,
+    *,
+    intent: IntentConfig | Mapping[str, Any] | None = None,
+    alerts: AlertConfig | None = None,
+    detector: Detector | None = None,
+    seed: int = 0,
+    render: bool = True,
+) -> PerceptionStack:
+    """The stack a scenario's settings describe.
+
+    Args:
+        perception: detector, tracker / estimator overrides and preprocessing (a scenario's
+            ``perception``).
+        camera: the camera the frames come from.
+        frame_rate: camera frames per second (the tracker's time base).
+        intent: the intent thresholds, or overrides of their defaults (a scenario's ``intent``).
+        alerts: debounce and hysteresis (a scenario's ``alerts``); None = the defaults.
+        detector: used instead of the one ``perception.detector`` describes (e.g. recorded boxes).
+        seed: seeds the ``gt`` detector's noise.
+        render: whether frames carry camera images (``auto`` picks the detector by it).
+
+    Raises:
+        SettingsError: ``onnx`` detector without images; ``ModelError``: an unloadable model.
+    """
+    if not isinstance(intent, IntentConfig):
+        intent = IntentConfig().with_overrides(dict(intent or {}))
+    return PerceptionStack(
+        detector or build_detector(perception.detector, seed, render), camera, frame_rate, intent,
+        perception.tracker_config(), perception.estimator_config(), alert_config=alerts,
+        preprocess=PreprocessChain(perception.preprocess),
+    )
