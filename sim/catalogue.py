@@ -4,15 +4,14 @@
 ``lookahead.scenarios`` (see ``setup.py``), found with ``importlib.resources`` — in a
 checkout (editable install) they are the repository's folders, in an installed wheel
 the copies inside it. Wheels install unpacked, so both are plain directories.
-``DEFAULT_MODEL`` is defined in ``perception.config`` (perception finds its model without sim).
+The shipped detector, ``DEFAULT_MODEL``, is found the same way in ``perception.config``
+(perception finds its model without sim).
 """
 
 from __future__ import annotations
 
 from importlib.resources import files
 from pathlib import Path
-
-from lookahead.perception.config import DEFAULT_MODEL  # noqa: F401  (the one definition, re-exported)
 
 #: The folder of the scenario catalogue (scenarios, ``suites/``, ``sweeps/``, ``generators/``).
 SCENARIOS = Path(str(files("lookahead.scenarios")))

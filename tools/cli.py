@@ -18,7 +18,7 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from lookahead.sim.catalogue import SCENARIOS, resolve_path
+from lookahead.sim.catalogue import SCENARIOS, catalogue_names, resolve_path
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="lookahead: forward-camera perception testbench")
 bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks; each writes a JSON file.")
@@ -359,6 +359,13 @@ def render(
     sink = PngSink()
     Runner(sc, sinks=[sink], render=True, renderer_backend=renderer).run()
     console.print(f"{sink.count} frames -> {out}", highlight=False)
+
+
+@app.command()
+def catalogue() -> None:
+    """The packaged scenarios, suites, sweeps and generators, by the names run / suite / sweep accept."""
+    for name in catalogue_names():
+        typer.echo(name)
 
 
 @app.command()
@@ -797,7 +804,7 @@ def bench_detect(
     windows: Annotated[str | None, typer.Option(help=WINDOWS_HELP)] = None,
 ) -> None:
     """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360 by default."""
-    from lookahead.sim.runner import DEFAULT_MODEL
+    from lookahead.perception.config import DEFAULT_MODEL
     from lookahead.tools.bench.detect import bench_detect as run_bench
 
     result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows),

@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lookahead.perception.config import DEFAULT_MODEL
 from lookahead.perception.detectors.onnx_detector import OnnxDetector
-from lookahead.sim.runner import DEFAULT_MODEL, Runner
+from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import DetectorSpec, load_scenario
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 

@@ -174,3 +174,17 @@ def test_eval_detector_refuses_a_bad_zoom_window_on_one_line(tmp_path, windows, 
     assert res.exit_code == 2, res.output
     assert needle in res.output and "Traceback" not in res.output
     assert len(res.output.strip().splitlines()) == 1
+
+
+def test_packaged_scenarios_by_name(tmp_path, monkeypatch):
+    """``lookahead catalogue`` lists the names ``run`` / ``suite`` accept from any directory."""
+    res = runner.invoke(app, ["catalogue"])
+    assert res.exit_code == 0, res.output
+    names = res.stdout.split()
+    assert {"ped_crossing_nearside", "suites/smoke", "sweeps/aeb_stationary_car", "generators/detector"} <= set(names)
+    monkeypatch.chdir(tmp_path)  # no scenarios/ folder here
+    res = runner.invoke(app, ["run", "stationary_car", "--out", "r", "--no-render"])
+    assert res.exit_code == 0, res.output
+    assert json.loads((tmp_path / "r" / "run.json").read_text())["scenario"]["name"] == "stationary_car"
+    res = runner.invoke(app, ["run", "no_such_scenario", "--out", "r2", "--no-render"])
+    assert res.exit_code == 2 and "no_such_scenario" in res.stderr and "Traceback" not in res.output

@@ -20,8 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
+from lookahead.perception.config import DEFAULT_MODEL
 from lookahead.perception.detectors.windows import DEFAULT_WINDOWS
-from lookahead.sim.catalogue import DEFAULT_MODEL, SCENARIOS
+from lookahead.sim.catalogue import SCENARIOS
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import DetectorSpec, load_scenario
 from lookahead.tools.bench.common import case, machine
