@@ -15,7 +15,8 @@ import pytest
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
 from lookahead.tools.reports.report import REPORT_FILE, build_report, report_command
-from lookahead.tools.scoring.run import score_run, score_suite
+from lookahead.tools.scoring.run import score_run
+from lookahead.tools.scoring.totals import score_suite
 from lookahead.tools.sinks.rundir import RunDirWriter
 
 ROOT = Path(__file__).resolve().parents[2]

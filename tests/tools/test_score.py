@@ -324,6 +324,26 @@ def test_initializing_tracks_are_dont_care_in_estimation(tmp_path):
     assert score_run(run)["estimation"]["n_initializing"] == 1
 
 
+def test_never_and_null_ttc_in_estimation(tmp_path):
+    """A predicted TTC of "never" (written 1e9, read as inf) counts as the finite NEVER it was
+    written as, as before the reader decoded it; a null prediction is left out; GT TTC of
+    never or null is outside the scored 0..5 s."""
+    ped = {"id": 1, "cls": PED, "box": A, "ttc": 2.0}
+    car = {"id": 2, "cls": CAR, "box": B, "ttc": 1e9}
+    far = {"id": 3, "cls": CAR, "box": FAR, "ttc": None}
+    frames = [
+        {"ground_truth": gt(ped, car, far), "tracks": tracks(
+            {"id": 7, "box": A, "cls": PED, "ttc": 1e9},  # never, GT 2 s: error (1e9 - 2) / 2
+            {"id": 8, "box": B, "cls": CAR, "ttc": 3.0},  # GT never: not scored
+            {"id": 9, "box": FAR, "cls": CAR, "ttc": 3.0})},  # GT null: not scored
+        {"ground_truth": gt(ped), "tracks": tracks({"id": 7, "box": A, "cls": PED, "ttc": None})},  # left out
+        {"ground_truth": gt(ped), "tracks": tracks({"id": 7, "box": A, "cls": PED, "ttc": 2.5})},  # 0.25
+    ]
+    m = score_run(write_run(tmp_path / "r", frames))["estimation"]
+    assert m["n"] == 5 and m["n_ttc"] == 2
+    assert m["ttc_err_median"] == pytest.approx(((1e9 - 2.0) / 2.0 + 0.25) / 2)
+
+
 def test_coasting_tracks_are_scored(tmp_path):
     """Lost (coasting) tracks the tracker outputs count: a hit on target, an FP off it."""
     ped = {"id": 1, "cls": PED, "box": A, "r": 20.0}

@@ -18,6 +18,9 @@ A suite page (a directory with ``summary.json``) has one row per scenario with
 its key metrics and a relative link to that run's own report (built too), and
 a totals row. Run directories without ``metrics.json`` are scored first.
 
+A run directory is read through one ``tools.sinks.rundir.RunDir``: scoring (when
+needed), the figures and the key frames share its one parse of ``ticks.jsonl``.
+
 Figure data, from ``ticks.jsonl``:
 * range error: per frame, reported tracks matched one-to-one to GT visible
   boxes by IoU >= 0.5 (``tools.scoring.estimation.match_pairs``, the pairs the
@@ -34,6 +37,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import sys
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
@@ -53,7 +57,16 @@ from lookahead.tools.reports.html import (
     row,
     table,
 )
-from lookahead.tools.sinks.rundir import NEVER, SUMMARY_FILE
+from lookahead.tools.sinks.rundir import (
+    METRICS_FILE,
+    RUN_FILE,
+    SUMMARY_FILE,
+    TICKS_FILE,
+    RunDir,
+    as_rundir,
+    decode,
+    read_summary,
+)
 
 log = logging.getLogger(__name__)
 
@@ -101,12 +114,12 @@ def confusion_figure(confusion: dict) -> str | None:
     return png_b64(fig)
 
 
-def range_error_figure(run_dir: Path) -> str | None:
+def range_error_figure(run: RunDir | Path) -> str | None:
     """Scatter of estimated − true range vs true range over matched (track, GT) pairs."""
     from lookahead.tools.scoring import estimation as est
     from lookahead.tools.scoring.io import load_run
 
-    run = load_run(run_dir)
+    run = load_run(as_rundir(run))
     if run.tracks is None:
         return None
     pairs = [est.match_pairs(g, t) for g, t in zip(run.gt, run.tracks, strict=True)]
@@ -153,35 +166,20 @@ class _Timeline:
         return votes.most_common(1)[0][0] if votes else None
 
 
-def _read_ticks(run_dir: Path) -> list[dict]:
-    """The records of ``ticks.jsonl``; ``RunDirError`` naming file and line when malformed."""
-    from lookahead.tools.scoring.io import RunDirError
-
-    path = run_dir / "ticks.jsonl"
-    out = []
-    for lineno, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
-        if line.strip():
-            try:
-                out.append(json.loads(line))
-            except json.JSONDecodeError as e:
-                raise RunDirError(f"{path}:{lineno}: not valid JSON ({e.msg})") from None
-    return out
-
-
-def _timeline(run_dir: Path, records: list[dict]) -> _Timeline:
+def _timeline(rd: RunDir) -> _Timeline:
     from lookahead.intent.labels import Label
     from lookahead.tools.scoring.io import load_run
     from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
-    run = load_run(run_dir)
+    run = load_run(rd)  # the frames the scorer built from the same RunDir
     tl = _Timeline()
-    for f, rec in enumerate(records):
+    for f, rec in enumerate(rd.ticks):
         tl.t.append(float(rec["t"]))
         gt = rec["ground_truth"]
         for i, a in enumerate(gt["actor_id"]):
             tl.names[a] = gt["name"][i]
-            ttc = gt["ttc"][i]
-            tl.true_ttc[a][f] = np.nan if ttc is None or ttc >= NEVER else float(ttc)
+            ttc = decode(gt["ttc"][i])
+            tl.true_ttc[a][f] = ttc if math.isfinite(ttc) else np.nan  # null or never: no line
             if gt["label"][i] == int(Label.DANGER):
                 tl.danger[a].add(f)
         tl.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
@@ -195,7 +193,7 @@ def _timeline(run_dir: Path, records: list[dict]) -> _Timeline:
             actor, tid = int(g.actor_id[g_idx]), int(trk.track_id[t_idx])
             tl.owner_votes[tid][actor] += 1
             ttc = float(trk.ttc[t_idx])
-            if not trk.initializing[t_idx] and np.isfinite(ttc) and ttc < NEVER:
+            if not trk.initializing[t_idx] and np.isfinite(ttc):  # never (inf) is not drawn
                 tl.pred[actor].append((f, ttc))
     return tl
 
@@ -211,9 +209,9 @@ def _ttc_actors(tl: _Timeline) -> list[int]:
     return sorted(chosen, key=lambda a: (min_ttc(a), a))[:MAX_TTC_PANELS]
 
 
-def ttc_figure(run_dir: Path, records: list[dict]) -> str | None:
+def ttc_figure(run: RunDir | Path) -> str | None:
     """True TTC (line) and predicted TTC (dots) per actor over time, alerts as vertical lines."""
-    tl = _timeline(run_dir, records)
+    tl = _timeline(as_rundir(run))
     actors = _ttc_actors(tl)
     if not actors or not tl.t:
         return None
@@ -436,23 +434,23 @@ def _timing_table(timing: dict) -> str:
 # --------------------------------------------------------------------------- run and suite pages
 
 
-def _ensure_metrics(run_dir: Path) -> dict:
-    from lookahead.tools.scoring.io import read_metrics
+def _ensure_metrics(rd: RunDir) -> dict:
     from lookahead.tools.scoring.run import score_run
 
-    if not (run_dir / "metrics.json").is_file():
-        log.info("%s: no metrics.json, scoring first", run_dir)
-        return score_run(run_dir)
-    return read_metrics(run_dir)
+    if not rd.has(METRICS_FILE):
+        log.info("%s: no metrics.json, scoring first", rd.path)
+        return score_run(rd)
+    return rd.read_metrics()
 
 
-def build_run_report(run_dir: Path) -> Path:
-    """Write ``run_dir/report.html``; returns its path."""
-    run_dir = Path(run_dir)
-    metrics = _ensure_metrics(run_dir)
-    run_json = run_dir / "run.json"
-    run = json.loads(run_json.read_text(encoding="utf-8")) if run_json.is_file() else {}
-    records = _read_ticks(run_dir)
+def build_run_report(run: RunDir | Path) -> Path:
+    """Write ``report.html`` into a run directory; returns its path. The run's files are
+    parsed once (one ``RunDir`` for the scoring, when needed, and every figure)."""
+    rd = as_rundir(run)
+    run_dir = rd.path
+    metrics = _ensure_metrics(rd)
+    run = rd.run if rd.has(RUN_FILE) else {}
+    records = rd.ticks
     sc = run.get("scenario") or {}
     summ = run.get("summary") or {}
     name = sc.get("name", run_dir.name)
@@ -467,11 +465,11 @@ def build_run_report(run_dir: Path) -> Path:
         f'<p class="sub">{escape(sc.get("description", ""))}</p><p class="sub">{escape(sub)}</p>',
         _cards(metrics),
         "<h2>Expectations</h2>", _expectations(metrics.get("expectations") or []),
-        "<h2>Time to collision</h2>", img(ttc_figure(run_dir, records), "TTC over time"),
+        "<h2>Time to collision</h2>", img(ttc_figure(rd), "TTC over time"),
         "<h2>Intent</h2>", '<div class="grid">',
         img(confusion_figure((metrics.get("intent") or {}).get("confusion") or {}), "intent confusion matrix"),
         "</div>",
-        "<h2>Range estimation</h2>", img(range_error_figure(run_dir), "range error vs distance"),
+        "<h2>Range estimation</h2>", img(range_error_figure(rd), "range error vs distance"),
         "<h2>Timing</h2>", '<div class="grid">',
         img(timing_figure(metrics.get("timing") or {}), "per-stage timing"),
         _timing_table(metrics.get("timing") or {}),
@@ -526,18 +524,18 @@ def _suite_totals_cells(totals: dict) -> list[tuple[object, str]]:
 def build_suite_report(suite_dir: Path) -> Path:
     """Write each run's report and ``suite_dir/report.html`` (one row per scenario)."""
     suite_dir = Path(suite_dir)
-    summary = json.loads((suite_dir / SUMMARY_FILE).read_text(encoding="utf-8"))
+    summary = read_summary(suite_dir)
     runs = summary.get("runs") or {}
     rows = []
     for name, entry in runs.items():
         rel = str((entry or {}).get("dir") or name) if isinstance(entry, dict) else str(name)
-        run_dir = suite_dir / rel
-        if not (run_dir / "ticks.jsonl").is_file():
-            log.warning("%s: run directory missing, skipped", run_dir)
+        rd = RunDir(suite_dir / rel)
+        if not rd.has(TICKS_FILE):
+            log.warning("%s: run directory missing, skipped", rd.path)
             continue
-        build_run_report(run_dir)
+        build_run_report(rd)
         href = escape(f"{rel}/{REPORT_FILE}")
-        cells = _suite_cells(_ensure_metrics(run_dir))
+        cells = _suite_cells(_ensure_metrics(rd))
         rows.append(row(f'<a href="{href}">{escape(name)}</a>', cells, f'<a href="{href}">report</a>'))
     totals = summary.get("totals") or {}
     if totals:
@@ -566,7 +564,7 @@ def build_report(path: Path) -> Path:
     path = Path(path)
     if not path.is_dir():
         raise ReportError(f"{path}: no such directory")
-    if (path / "ticks.jsonl").is_file():
+    if (path / TICKS_FILE).is_file():
         return build_run_report(path)
     if (path / SUMMARY_FILE).is_file():
         from lookahead.tools.reports.sweep import build_sweep_report, is_sweep_dir

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from lookahead.tools.reports.html import REPORT_FILE, escape, fmt, img, page, png_b64, pyplot, row
-from lookahead.tools.sinks.rundir import NEVER, SUMMARY_FILE
+from lookahead.tools.sinks.rundir import is_number, read_summary
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +44,7 @@ _COLOURS = ("#1a73e8", "#d93025", "#188038", "#f29900", "#a142f4", "#5f6368")
 
 def is_sweep_dir(path: Path) -> bool:
     try:
-        data = json.loads((Path(path) / SUMMARY_FILE).read_text(encoding="utf-8"))
+        data = read_summary(Path(path))
     except (OSError, ValueError):
         return False
     return isinstance(data, dict) and "sweep" in data and "variants" in data
@@ -53,7 +53,7 @@ def is_sweep_dir(path: Path) -> bool:
 def _num(v: Any) -> float | None:
     if isinstance(v, bool):
         return float(v)
-    if isinstance(v, int | float) and math.isfinite(v) and abs(v) < NEVER:
+    if is_number(v):  # finite, not the "never" sentinel
         return float(v)
     return None
 
@@ -157,7 +157,7 @@ def _safe(name: str) -> str:
 def build_sweep_report(sweep_dir: Path) -> Path:
     """Write ``sweep_dir/report.html`` (and ``plots/*.png``); returns the page's path."""
     sweep_dir = Path(sweep_dir)
-    summary = json.loads((sweep_dir / SUMMARY_FILE).read_text(encoding="utf-8"))
+    summary = read_summary(sweep_dir)
     variants: dict[str, dict] = summary.get("variants") or {}
     params: list[str] = summary.get("parameters") or []
     rep = summary.get("report") or {}

@@ -46,7 +46,6 @@ intent degrade gracefully, not only under the ``gt`` detector's noise model.
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from pathlib import Path
@@ -58,9 +57,22 @@ from lookahead.intent.config import IntentConfig
 from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.frame import EgoOdometry, Frame
-from lookahead.sim.records import jsonable
 from lookahead.sim.scenario import Scenario
-from lookahead.tools.sinks.rundir import OutputError, prepare_dir
+from lookahead.tools.sinks.rundir import (
+    METRICS_FILE,
+    SUMMARY_FILE,
+    TICKS_FILE,
+    TIMINGS_FILE,
+    OutputError,
+    RunDir,
+    as_rundir,
+    prepare_dir,
+    read_summary,
+    tick_line,
+    timings_line,
+    write_run_json,
+    write_summary,
+)
 
 log = logging.getLogger(__name__)
 
@@ -163,12 +175,9 @@ def _odometry(ego: dict) -> EgoOdometry:
     return EgoOdometry(speed=f("speed"), accel=f("accel"), yaw_rate=f("yaw_rate"))
 
 
-def load_scenario_of(run_dir: Path) -> tuple[dict, Scenario]:
+def load_scenario_of(run_dir: Path | RunDir) -> tuple[dict, Scenario]:
     """``run.json`` of a run directory and the scenario it was run with."""
-    path = Path(run_dir) / "run.json"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (not a run directory?)")
-    run = json.loads(path.read_text(encoding="utf-8"))
+    run = as_rundir(run_dir).run
     return run, Scenario.model_validate(run["scenario"])
 
 
@@ -188,13 +197,13 @@ def replay_run(
     from lookahead.sim.aeb import Aeb
     from lookahead.sim.runner import PerceptionStack, camera_from_scenario
 
-    run_dir, out_dir = Path(run_dir), Path(out_dir)
-    ticks_in = run_dir / "ticks.jsonl"
-    if not ticks_in.is_file():
-        raise FileNotFoundError(f"{ticks_in}: no such file (not a run directory?)")
+    source, out_dir = RunDir(run_dir), Path(out_dir)
+    run_dir = source.path
+    source.file(TICKS_FILE)  # one-line error for a missing directory or ticks file
     if out_dir.resolve() == run_dir.resolve():
         raise OutputError(f"{out_dir}: the replay must go to another directory than its source")
-    run, scenario = load_scenario_of(run_dir)
+    records = source.ticks  # parsed once, before anything is written
+    run, scenario = load_scenario_of(source)
     scenario = _with_overrides(scenario, overrides or {})
     perturb = perturb or Perturbation()
     camera = camera_from_scenario(scenario)
@@ -215,13 +224,9 @@ def replay_run(
     prepare_dir(out_dir)
     divergent, first_divergence, frames = 0, None, 0
     t_start = time.perf_counter()
-    with ticks_in.open(encoding="utf-8") as fin, \
-            (out_dir / "ticks.jsonl").open("w", encoding="utf-8") as fout, \
-            (out_dir / "timings.jsonl").open("w", encoding="utf-8") as ftim:
-        for line in fin:
-            if not line.strip():
-                continue
-            rec = json.loads(line)
+    with (out_dir / TICKS_FILE).open("w", encoding="utf-8") as fout, \
+            (out_dir / TIMINGS_FILE).open("w", encoding="utf-8") as ftim:
+        for rec in records:  # each line copied with the outputs replaced
             t = float(rec["t"])
             ego = rec.get("ego") or {}
             dets = _detections(rec.get("detections"))
@@ -241,12 +246,10 @@ def replay_run(
                     first_divergence = t if first_divergence is None else first_divergence
                 crit, nearest = stack.critical_in_path(tracks, est, assessment)
                 aeb.decide(t, crit, nearest, frame.odometry.speed)
-            rec["detections"] = dets.to_dict()
-            rec["tracks"] = {**tracks.to_dict(), **est.to_dict()}
-            rec["assessments"] = assessment.to_dict()
-            rec["alerts"] = [a.to_dict() for a in alerts]
-            fout.write(json.dumps(jsonable(rec), separators=(",", ":")) + "\n")
-            ftim.write(json.dumps({k: round(timings[k], 3) for k in REPLAY_STAGES if k in timings}) + "\n")
+            line = {**rec, "detections": dets.to_dict(), "tracks": {**tracks.to_dict(), **est.to_dict()},
+                    "assessments": assessment.to_dict(), "alerts": [a.to_dict() for a in alerts]}
+            fout.write(tick_line(line))
+            ftim.write(timings_line({k: timings[k] for k in REPLAY_STAGES if k in timings}))
             frames += 1
     replay = {
         "source": str(run_dir),
@@ -262,13 +265,16 @@ def replay_run(
         log.warning("%s: AEB fed by the replayed alerts differs from the recorded ego on %d frame(s) from "
                     "t=%.2f s: the replay is open-loop there", run_dir, divergent, first_divergence)
     out_run = {**run, "scenario": scenario.model_dump(mode="json"), "replay": replay}
-    (out_dir / "run.json").write_text(json.dumps(jsonable(out_run), indent=2, sort_keys=True) + "\n")
-    (out_dir / "metrics.json").unlink(missing_ok=True)
+    write_run_json(out_dir, out_run)
+    (out_dir / METRICS_FILE).unlink(missing_ok=True)
     result = {"name": scenario.name, "dir": str(out_dir), "summary": run.get("summary") or {}, "replay": replay}
     if score:
         from lookahead.tools.scoring.run import score_run
+        from lookahead.tools.scoring.totals import RunFrames
 
-        result["metrics"] = score_run(out_dir)
+        replayed = RunDir(out_dir)  # one parse of the replay: scoring, then suite totals' frames
+        result["metrics"] = score_run(replayed)
+        result["frames"] = RunFrames.of(replayed)
     return result
 
 
@@ -293,19 +299,19 @@ def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
 
 
 def is_suite_dir(path: Path) -> bool:
-    return (Path(path) / "summary.json").is_file() and not (Path(path) / "ticks.jsonl").is_file()
+    return (Path(path) / SUMMARY_FILE).is_file() and not (Path(path) / TICKS_FILE).is_file()
 
 
 def replay_suite(
     suite_dir: Path, out: Path, perturb: Perturbation | None = None, overrides: dict | None = None,
     progress=None,
 ) -> dict:
-    """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like ``lookahead suite``."""
-    from lookahead.tools.scoring.intent import intent_totals
-    from lookahead.tools.scoring.run import score_suite
+    """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like
+    ``lookahead suite`` (totals: ``tools.scoring.totals.suite_totals``)."""
+    from lookahead.tools.scoring.totals import suite_totals
 
     suite_dir, out = Path(suite_dir), Path(out)
-    src = json.loads((suite_dir / "summary.json").read_text(encoding="utf-8"))
+    src = read_summary(suite_dir)
     prepare_dir(out)
     results = []
     for name, r in src["runs"].items():
@@ -314,8 +320,7 @@ def replay_suite(
         results.append(res)
         if progress:
             progress(name)
-    totals = score_suite([Path(r["dir"]) for r in results])
-    totals.update(intent_totals([r["metrics"] for r in results]))
+    totals = suite_totals([r["frames"] for r in results], [r["metrics"] for r in results])
     summary = {
         "suite": src.get("suite"),
         "render": src.get("render"),
@@ -325,7 +330,7 @@ def replay_suite(
                              "replay": r["replay"]} for r in results},
         "totals": totals,
     }
-    (out / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+    write_summary(out, summary)
     return summary
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import yaml
@@ -42,7 +41,11 @@ def run_one(
     scenario_path: str, out_dir: str, render: bool, db: str | None = None, outputs: tuple[str, ...] = (),
     detector: tuple[str | None, str | None] = (None, None),
 ) -> dict:
-    """Run and score one scenario into ``out_dir`` (a worker's job; returns its metrics).
+    """Run and score one scenario into ``out_dir`` (a worker's job).
+
+    Returns name, dir, the runner's summary, the metrics and ``frames``: the run's
+    ``tools.scoring.totals.RunFrames`` (what suite totals re-score), so the caller does
+    not read the run directory again.
 
     ``outputs`` may name extra sinks: ``keyframes`` (annotated PNGs in frames/),
     ``video`` (annotated.mp4), ``rerun`` (run.rrd). ``detector`` = (kind, model)
@@ -51,7 +54,8 @@ def run_one(
     from lookahead.sim.runner import Runner
     from lookahead.sim.scenario import load_scenario, with_detector
     from lookahead.tools.scoring.run import score_run
-    from lookahead.tools.sinks.rundir import RunDirWriter
+    from lookahead.tools.scoring.totals import RunFrames
+    from lookahead.tools.sinks.rundir import RunDir, RunDirWriter
 
     sc = with_detector(load_scenario(scenario_path), *detector)
     run_dir = Path(out_dir)
@@ -80,8 +84,10 @@ def run_one(
                 sink.close()
         raise
     summary = runner.run()
-    metrics = score_run(Path(out_dir))
-    return {"name": sc.name, "dir": out_dir, "summary": summary.to_dict(), "metrics": metrics}
+    rd = RunDir(out_dir)  # one parse of the run: scoring, then the suite totals' frames
+    metrics = score_run(rd)
+    return {"name": sc.name, "dir": out_dir, "summary": summary.to_dict(), "metrics": metrics,
+            "frames": RunFrames.of(rd)}
 
 
 def run_suite(
@@ -90,14 +96,15 @@ def run_suite(
     detector: tuple[str | None, str | None] = (None, None),
 ) -> dict:
     """Run every scenario of a suite (on a process pool when ``workers`` > 1), score
-    each, and write ``out/summary.json`` with per-run metrics and suite ``totals``.
+    each, and write ``out/summary.json`` with per-run metrics and suite ``totals``
+    (``tools.scoring.totals.suite_totals``, from the frames the workers scored).
     ``detector`` = (kind, model) overrides every scenario's detector."""
     from concurrent.futures import ProcessPoolExecutor, as_completed
     from multiprocessing import get_context
 
     from lookahead.sim.scenario import load_scenario
-    from lookahead.tools.scoring.run import score_suite
-    from lookahead.tools.sinks.rundir import prepare_dir
+    from lookahead.tools.scoring.totals import suite_totals
+    from lookahead.tools.sinks.rundir import prepare_dir, write_summary
 
     name, paths = load_suite(suite_path)
     from lookahead.sim.runner import build_detector
@@ -135,10 +142,7 @@ def run_suite(
                 if progress:
                     progress(r["name"])
     ordered = [results[load_scenario(p).name] for p in paths]
-    from lookahead.tools.scoring.intent import intent_totals
-
-    totals = score_suite([Path(r["dir"]) for r in ordered])
-    totals.update(intent_totals([r["metrics"] for r in ordered]))
+    totals = suite_totals([r["frames"] for r in ordered], [r["metrics"] for r in ordered])
     summary = {
         "suite": name,
         "render": render,
@@ -146,7 +150,5 @@ def run_suite(
         "runs": {r["name"]: {"dir": Path(r["dir"]).name, "summary": r["summary"], "metrics": r["metrics"]} for r in ordered},
         "totals": totals,
     }
-    from lookahead.sim.records import jsonable
-
-    (out / "summary.json").write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+    write_summary(out, summary)
     return summary

@@ -36,7 +36,7 @@ draws unchanged.
 ``variant.json`` and a normal run directory), one SQLite store for all
 variants (``OUT/sweep.sqlite``, one run per variant), ``OUT/summary.json``
 (per-variant parameters, status, key metrics; ``totals`` pooled from the
-variants' metrics by ``sweep_totals``) and ``OUT/report.html``
+variants' metrics by ``tools.scoring.totals.sweep_totals``) and ``OUT/report.html``
 (``tools.reports.sweep``). A variant is done when its ``run.json`` says
 ``complete: true`` with the variant's ``config_hash`` and its ``metrics.json`` exists; a re-run skips done variants and re-runs the rest
 (their directories and store rows are removed first). A variant that raises is
@@ -74,10 +74,17 @@ from lookahead.sim.scenario import (
     parse_yaml_model,
     read_text_file,
 )
+from lookahead.tools.scoring.totals import metric_at, sweep_totals
+from lookahead.tools.sinks.rundir import (
+    METRICS_FILE,
+    RunDir,
+    as_rundir,
+    config_hash,
+    write_summary,
+)
 
 log = logging.getLogger(__name__)
 
-SUMMARY_FILE = "summary.json"
 RUNS_DIR = "runs"
 DB_FILE = "sweep.sqlite"
 IMPACT_OFFSET = "impact_offset"
@@ -577,16 +584,14 @@ def _failed(vid: str, exc: BaseException) -> dict:
     return {"id": vid, "ok": False, "error": one_line(exc), "seconds": None, "pid": None}
 
 
-def is_complete(run_dir: Path, scenario: Scenario) -> bool:
+def is_complete(run_dir: Path | RunDir, scenario: Scenario) -> bool:
     """``run.json`` complete for this very scenario (config hash) and ``metrics.json`` written."""
-    from lookahead.tools.sinks.rundir import config_hash
-
+    rd = as_rundir(run_dir)
     try:
-        run = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
+        run = rd.run
     except (OSError, ValueError):
         return False
-    return bool(run.get("complete")) and run.get("config_hash") == config_hash(scenario) and (
-        run_dir / "metrics.json").is_file()
+    return bool(run.get("complete")) and run.get("config_hash") == config_hash(scenario) and rd.has(METRICS_FILE)
 
 
 def forget_runs(db: Path, run_dirs: list[Path]) -> int:
@@ -675,17 +680,8 @@ def _run_ray(jobs: list[dict], address: str, workers: int, on_result: Callable[[
             ray.shutdown()
 
 
-def _get(metrics: dict, dotted: str) -> Any:
-    node: Any = metrics
-    for k in dotted.split("."):
-        if not isinstance(node, dict):
-            return None
-        node = node.get(k)
-    return None if isinstance(node, dict | list) else node
-
-
 def key_metrics(metrics: dict, extra: list[str] | None = None) -> dict[str, Any]:
-    out = {k: _get(metrics, k) for k in (*KEY_METRICS, *(extra or []))}
+    out = {k: metric_at(metrics, k) for k in (*KEY_METRICS, *(extra or []))}
     exp = metrics.get("expectations") or []
     out["expectations.passed"] = sum(bool(e.get("passed")) for e in exp)
     out["expectations.total"] = len(exp)
@@ -760,9 +756,7 @@ def run_sweep(
     elapsed = time.perf_counter() - t0
     summary = gather(out, spec, sweep_path, base_path, variants, results, render=render, db=db)
     summary.update(backend=backend, workers=workers, elapsed_s=round(elapsed, 3))
-    from lookahead.sim.records import jsonable
-
-    (out / SUMMARY_FILE).write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+    write_summary(out, summary)
     if report:
         from lookahead.tools.reports.sweep import build_sweep_report
 
@@ -770,73 +764,31 @@ def run_sweep(
     return summary
 
 
-def _ratio(num: float, den: float) -> float | None:
-    return round(num / den, 4) if den else None
-
-
-def sweep_totals(per_variant: list[dict]) -> dict:
-    """Sweep totals pooled from the variants' ``metrics.json`` (O(variants), nothing re-read).
-
-    ``intent``, ``danger``, ``closed_loop``, ``expectations``: ``tools.scoring.intent.intent_totals``
-    (exact, as a suite's). ``detection``: gt / tp / fp summed, precision and recall recomputed;
-    ``tracking``: tp / fp / fn / id_switches / fragmentations / mostly_* summed, MOTA
-    recomputed; ``estimation``: the sample counts. Metrics that do not pool from per-run
-    numbers (AP50, IDF1, HOTA, MOTP, error medians) are left out here -- a suite's
-    ``score_suite`` re-scores every frame of every run in one process, which a sweep of
-    hundreds of variants on a cluster must not do -- and ``mean_over_variants`` gives the
-    plain mean of every ``KEY_METRICS`` number instead.
-    """
-    from lookahead.tools.scoring.intent import intent_totals
-
-    def total(section: str, key: str) -> int:
-        return int(sum((m.get(section) or {}).get(key) or 0 for m in per_variant))
-
-    det = {k: total("detection", k) for k in ("gt", "tp", "fp", "ignored", "frames")}
-    det.update(precision=_ratio(det["tp"], det["tp"] + det["fp"]), recall=_ratio(det["tp"], det["gt"]))
-    trk = {k: total("tracking", k) for k in ("tp", "fp", "fn", "id_switches", "fragmentations", "mostly_tracked",
-                                             "partially_tracked", "mostly_lost", "num_gt_ids")}
-    gt = trk["tp"] + trk["fn"]
-    trk["mota"] = round(1.0 - (trk["fn"] + trk["fp"] + trk["id_switches"]) / gt, 4) if gt else None
-    est = {k: total("estimation", k) for k in ("n_range", "n_speed", "n_ttc", "n", "n_initializing")}
-    means = {}
-    for k in KEY_METRICS:
-        vals = [v for v in (_get(m, k) for m in per_variant) if isinstance(v, int | float)]
-        means[k] = round(sum(float(v) for v in vals) / len(vals), 4) if vals else None
-    out = {"detection": {"precision": det.pop("precision"), "recall": det.pop("recall"), **det},
-           "tracking": {"mota": trk.pop("mota"), **trk}, "estimation": est}
-    out.update(intent_totals(per_variant))
-    out["mean_over_variants"] = means
-    return out
-
-
 def gather(
     out: Path, spec: SweepSpec, sweep_path: Path, base_path: Path, variants: list[Variant],
     results: dict[str, dict], render: bool, db: Path,
 ) -> dict:
     """``summary.json`` content from the run directories on disk (done now or earlier)."""
-    from lookahead.tools.scoring.io import read_metrics
-
     entries: dict[str, dict] = {}
-    done: list[tuple[Path, dict]] = []
+    done: list[dict] = []  # the done variants' metrics
     extra = spec.report.metrics or []
     for v in variants:
-        d = out / RUNS_DIR / v.id
+        d = RunDir(out / RUNS_DIR / v.id)
         r = results.get(v.id)
         entry: dict[str, Any] = {"dir": f"{RUNS_DIR}/{v.id}", "params": v.params, "skipped": r is None,
                                  "seconds": None if r is None else r.get("seconds"),
                                  "cpu_seconds": None if r is None else r.get("cpu_seconds")}
         if is_complete(d, v.scenario):
-            metrics = read_metrics(d)
-            run = json.loads((d / "run.json").read_text(encoding="utf-8"))
-            entry.update(status="done", summary=run.get("summary"), metrics=key_metrics(metrics, extra))
-            done.append((d, metrics))
+            metrics = d.read_metrics()
+            entry.update(status="done", summary=d.run.get("summary"), metrics=key_metrics(metrics, extra))
+            done.append(metrics)
         else:
             error = (r or {}).get("error") or ("the run ended without a complete run directory" if r else
                                                "not run")
             entry.update(status="failed", error=error)
         entries[v.id] = entry
     failed = [k for k, e in entries.items() if e["status"] == "failed"]
-    totals = sweep_totals([m for _, m in done]) if done else {}
+    totals = sweep_totals(done, KEY_METRICS) if done else {}
 
     def rel(p: Path) -> str:
         try:

@@ -26,7 +26,8 @@ null when its set is empty; null estimates are left out of the set):
     speed_err_median -- median |g_hat - g| (m/s), Euclidean norm of the difference
         of the ground-velocity vectors (ego axes), all pairs;
     ttc_err_median -- median |TTC_hat - TTC| / TTC over pairs with
-        0 < GT TTC < TTC_MAX_S (5 s); a predicted "never" (1e9) counts as is.
+        0 < GT TTC < TTC_MAX_S (5 s); a predicted "never" counts as the large finite
+        ``NEVER`` (1e9 s) it is written as (decoded to inf, clipped back here).
 ``n`` = scored pairs (matched, not initializing); ``n_initializing`` = matched
 pairs left out as initializing. Without tracks in the run every metric is null,
 counts 0.
@@ -36,7 +37,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from lookahead.tools.scoring.io import GTFrame, RunData, TrackFrame
+from lookahead.tools.scoring.io import NEVER, GTFrame, RunData, TrackFrame
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
 UNOCCLUDED_MIN_VISIBLE_FRACTION = 0.9
@@ -97,8 +98,9 @@ def evaluate_estimation(run: RunData) -> dict:
         abs_err = range_err[in_range]
         speed = np.linalg.norm(p["v_hat"] - p["v"], axis=1)
         speed = speed[np.isfinite(speed)]
-        ttc_sel = (p["ttc"] > 0) & (p["ttc"] < TTC_MAX_S) & np.isfinite(p["ttc_hat"])
-        ttc = np.abs(p["ttc_hat"][ttc_sel] - p["ttc"][ttc_sel]) / p["ttc"][ttc_sel]
+        ttc_hat = np.clip(p["ttc_hat"], -NEVER, NEVER)  # "never" as the finite NEVER (NaN stays)
+        ttc_sel = (p["ttc"] > 0) & (p["ttc"] < TTC_MAX_S) & np.isfinite(ttc_hat)
+        ttc = np.abs(ttc_hat[ttc_sel] - p["ttc"][ttc_sel]) / p["ttc"][ttc_sel]
     return {
         "range_rel_err_median": _stat(rel, np.median),
         "range_abs_err_p90": _stat(abs_err, lambda x: np.percentile(x, RANGE_ABS_PERCENTILE)),

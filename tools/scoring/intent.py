@@ -23,12 +23,12 @@ Definitions (documented constants):
   whose track is associated with no object.
 * A track's object: the ground-truth actor it is matched with most often.
 * ``ttc_when_first_visible``: the object's true TTC at the first frame it was
-  visible (1e9 when not closing): a warning cannot come earlier than that.
+  visible (``NEVER`` = 1e9 when not closing): a warning cannot come earlier than that.
 """
 
 from __future__ import annotations
 
-import json
+import math
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,8 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from lookahead.intent.labels import LABEL_NAMES, Label, Risk
-from lookahead.tools.scoring.io import RunDirError
 from lookahead.tools.scoring.matching import IOU_THRESHOLD, class_iou, hungarian_match
+from lookahead.tools.sinks.rundir import NEVER, RUN_FILE, RunDir, RunDirError, as_rundir, decode
 
 LABEL_TOLERANCE_S = 0.3
 EPISODE_GAP_FRAMES = 2
@@ -65,26 +65,20 @@ class IntentRun:
     aeb_frames: int = 0
 
 
-def load_intent_run(run_dir: Path) -> IntentRun:
-    run_dir = Path(run_dir)
-    path = run_dir / "ticks.jsonl"
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (not a run directory?)")
+def load_intent_run(run: RunDir | Path) -> IntentRun:
+    """What intent scoring needs of a run directory (``RunDir.ticks`` and ``run.json``'s
+    ``expect``); ``RunDirError`` naming ``file:line`` when a record lacks an intent field."""
+    rd = as_rundir(run)
+    records = rd.ticks  # FileNotFoundError / RunDirError before run.json is looked at
     out = IntentRun()
-    run_json = run_dir / "run.json"
-    if run_json.is_file():
-        out.expect = list(json.loads(run_json.read_text()).get("scenario", {}).get("expect", []) or [])
-    with path.open(encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip():
-                continue
-            try:
-                rec = json.loads(line)
-                f = len(out.t)
-                out.t.append(float(rec["t"]))
-                _read_frame(out, f, rec)
-            except (json.JSONDecodeError, KeyError, TypeError, ValueError) as e:
-                raise RunDirError(f"{path}:{lineno}: cannot read intent fields ({e})") from None
+    if rd.has(RUN_FILE):
+        out.expect = list(rd.run.get("scenario", {}).get("expect", []) or [])
+    for f, rec in enumerate(records):
+        try:
+            out.t.append(float(rec["t"]))
+            _read_frame(out, f, rec)
+        except (KeyError, TypeError, ValueError) as e:
+            raise RunDirError(f"{rd.where(f)}: cannot read intent fields ({e})") from None
     return out
 
 
@@ -96,8 +90,8 @@ def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
     for i, a in enumerate(ids.tolist()):
         out.names[a] = gt["name"][i]
         out.gt_label[a][f] = int(gt["label"][i])
-        ttc = gt["ttc"][i]
-        out.gt_ttc[a][f] = float("inf") if ttc is None or ttc >= 1e9 else float(ttc)
+        ttc = decode(gt["ttc"][i])
+        out.gt_ttc[a][f] = math.inf if math.isnan(ttc) else ttc  # null: never, as the sentinel
         if np.all(np.isfinite(vis[i])) and gt["class_id"][i] >= 0:
             out.gt_visible[a].add(f)
         if gt["in_path"][i]:
@@ -203,7 +197,7 @@ def evaluate_danger(run: IntentRun) -> dict:
             ttc_seen = run.gt_ttc[actor].get(min(seen), float("inf")) if seen else None
             ev = {"actor": run.names.get(actor, str(actor)), "t_start": _r(t[start]), "t_end": _r(t[end]),
                   "warned": bool(mine), "lead_time_s": None,
-                  "ttc_when_first_visible": _r(min(ttc_seen, 1e9)) if ttc_seen is not None else None}
+                  "ttc_when_first_visible": _r(min(ttc_seen, NEVER)) if ttc_seen is not None else None}
             if mine:
                 first = min(mine, key=lambda a: a["t"])
                 ttc = run.gt_ttc[actor].get(first["frame"], float("inf"))
@@ -303,56 +297,3 @@ def intent_sections(run: IntentRun) -> dict:
 
 def _r(x) -> float | None:
     return None if x is None else round(float(x), 4)
-
-
-def intent_totals(per_run: list[dict]) -> dict:
-    """Suite totals of the intent, danger and closed-loop sections: counts summed,
-    rates and medians recomputed (confusion matrices added, lead times pooled)."""
-    runs = [m for m in per_run if m.get("intent")]
-    labels = [LABEL_NAMES[Label(k)] for k in SCORED_LABELS]
-    conf = np.zeros((len(labels), len(labels)), dtype=np.int64)
-    for m in runs:
-        conf += np.asarray(m["intent"]["confusion"]["matrix"], dtype=np.int64)
-    total = int(conf.sum())
-    per_class, f1s = {}, []
-    for i, name in enumerate(labels):
-        tp, fp, fn = conf[i, i], conf[:, i].sum() - conf[i, i], conf[i, :].sum() - conf[i, i]
-        p = tp / (tp + fp) if tp + fp else None
-        r = tp / (tp + fn) if tp + fn else None
-        f1 = 2 * p * r / (p + r) if p and r else (0.0 if (tp + fp + fn) else None)
-        per_class[name] = {"precision": _r(p), "recall": _r(r), "f1": _r(f1), "support": int(conf[i, :].sum())}
-        if tp + fp + fn:
-            f1s.append(f1 or 0.0)
-    events = [e for m in runs for e in m["danger"]["event_list"]]
-    leads = [e["lead_time_s"] for e in events if e["lead_time_s"] is not None]
-    n_ev = len(events)
-    missed = sum(m["danger"]["missed"] for m in runs)
-    alerts = sum(m["danger"]["alerts"] for m in runs)
-    fa = sum(m["danger"]["false_alarms"] for m in runs)
-    hits = [m["closed_loop"] for m in runs]
-    return {
-        "intent": {
-            "accuracy": _r(np.trace(conf) / total) if total else None,
-            "macro_f1": _r(float(np.mean(f1s))) if f1s else None,
-            "per_class": per_class,
-            "confusion": {"labels": labels, "matrix": conf.tolist()},
-            "n": total,
-            "n_initializing": sum(int(m["intent"].get("n_initializing") or 0) for m in runs),
-        },
-        "danger": {
-            "events": n_ev, "missed": missed, "alerts": alerts, "false_alarms": fa,
-            "miss_rate": _r(missed / n_ev) if n_ev else None,
-            "false_alarm_rate": _r(fa / alerts) if alerts else None,
-            "lead_time_s_median": _r(float(np.median(leads))) if leads else None,
-            "lead_time_s_min": _r(float(np.min(leads))) if leads else None,
-        },
-        "closed_loop": {
-            "runs": len(hits),
-            "collisions": sum(1 for h in hits if h["collision"]),
-            "impact_speed_max": _r(max([h["impact_speed"] or 0.0 for h in hits], default=0.0)),
-        },
-        "expectations": {
-            "total": sum(len(m.get("expectations", [])) for m in runs),
-            "failed": sum(1 for m in runs for e in m.get("expectations", []) if not e["passed"]),
-        },
-    }

@@ -1,22 +1,20 @@
-"""Read a run directory's ``ticks.jsonl`` into typed per-frame arrays; merge ``metrics.json``.
+"""The scorer's typed view of a run directory: ``ticks.jsonl`` as per-frame arrays.
 
-``ticks.jsonl`` conventions (``tools/sinks/rundir.py``): ``null`` is read as NaN, and
-+inf was written as 1e9, which is kept as is (a finite, huge number). A missing
-visible box (``null`` or four ``null`` s) becomes a NaN row. Frames are numbered
-by their position in the file (0-based), blank lines are skipped.
+The run directory is read by ``tools.sinks.rundir.RunDir`` (parsed once per ``RunDir``);
+``load_run`` turns its records into ``RunData`` and keeps that on the ``RunDir``, so
+every scorer (and the report) given the same ``RunDir`` shares one parse. Numbers
+are decoded by ``rundir.decode_array``: ``null`` is NaN, the "never" sentinel
+(``abs(v) >= NEVER``, e.g. a TTC of never) is +-inf -- consumers that want it as a
+large finite number clip to ``NEVER`` themselves. A missing visible box (``null``
+or four ``null`` s) becomes a NaN row. Frames are numbered by their position in the
+file (0-based), blank lines are skipped.
 
-``metrics.json`` is shared with other scorers (intent, danger, closed loop,
-expectations, timing): ``merge_sections`` updates only the keys of the
-sections it is given, and ``write_metrics`` replaces the file atomically
-(temporary file + ``os.replace``), so a reader never sees half a file.
-Concurrent read-modify-write by two scorers is not locked: run them in turn.
+``metrics.json`` is read, merged and written atomically by ``tools.sinks.rundir``
+(``read_metrics``, ``merge_sections``, ``write_metrics``, re-exported here).
 """
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,10 +24,18 @@ import numpy as np
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Label
 from lookahead.perception.tracker import TrackState
-from lookahead.sim.records import jsonable
-
-TICKS_FILE = "ticks.jsonl"
-METRICS_FILE = "metrics.json"
+from lookahead.tools.sinks.rundir import (  # noqa: F401  (re-exported: the scorers' names)
+    METRICS_FILE,
+    NEVER,
+    TICKS_FILE,
+    RunDir,
+    RunDirError,
+    as_rundir,
+    decode_array,
+    merge_sections,
+    read_metrics,
+    write_metrics,
+)
 
 _CONFIRMED = (TrackState.CONFIRMED.name.lower(), int(TrackState.CONFIRMED))
 _LOST = (TrackState.LOST.name.lower(), int(TrackState.LOST))
@@ -37,10 +43,6 @@ _LOST = (TrackState.LOST.name.lower(), int(TrackState.LOST))
 LABEL_INITIALIZING = int(Label.INITIALIZING)
 #: Fallback when a run has no assessments: tracks younger than this are initializing.
 INIT_FRAMES = IntentConfig().init_frames
-
-
-class RunDirError(ValueError):
-    """Malformed run-directory content; ``str()`` is one line naming the file (and line)."""
 
 
 @dataclass(frozen=True)
@@ -54,7 +56,7 @@ class GTFrame:
     truncation: np.ndarray  # (N,) share of the amodal box outside the image
     range: np.ndarray  # (N,) m, nearest point's x
     velocity: np.ndarray  # (N, 2) m/s, ground velocity in ego axes
-    ttc: np.ndarray  # (N,) s, 1e9 = never
+    ttc: np.ndarray  # (N,) s, inf = never
 
 
 @dataclass(frozen=True)
@@ -77,7 +79,7 @@ class TrackFrame:
     confirmed: np.ndarray  # (K,) bool, state == confirmed
     range: np.ndarray  # (K,) m
     ground_velocity: np.ndarray  # (K, 2) m/s, ground_vx, ground_vy
-    ttc: np.ndarray  # (K,) s, 1e9 = never
+    ttc: np.ndarray  # (K,) s, inf = never
     reported: np.ndarray  # (K,) bool, state confirmed or lost (coasting): what the system outputs
     initializing: np.ndarray  # (K,) bool, intent label ``initializing`` (or age < init_frames)
 
@@ -110,7 +112,7 @@ def _array(obj: dict, key: str, n: int, cols: int | None, where: str, required: 
     if cols is not None:
         value = [[None] * cols if row is None else row for row in value]
     try:
-        arr = np.array(value, dtype=np.float64)
+        arr = decode_array(value)
     except (TypeError, ValueError):
         raise RunDirError(f"{where}.{key}: expected numbers (null allowed)") from None
     if arr.size == 0 and n == 0:
@@ -216,90 +218,32 @@ def _empty_tracks() -> TrackFrame:
     return TrackFrame(zi, np.zeros((0, 4)), zi, z, zb, z, np.zeros((0, 2)), z, zb, zb)
 
 
-def load_run(run_dir: Path) -> RunData:
-    """Parse ``run_dir/ticks.jsonl``.
+def load_run(run: RunDir | Path) -> RunData:
+    """The frames of a run directory's ``ticks.jsonl`` (kept on the ``RunDir``: built once).
 
     Raises:
         FileNotFoundError / NotADirectoryError: no such run directory or no ticks file.
         RunDirError: a line that is not a JSON object or whose arrays are malformed
             (message ``<file>:<line>: ...``).
     """
-    run_dir = Path(run_dir)
-    if not run_dir.exists():
-        raise FileNotFoundError(f"{run_dir}: no such run directory")
-    if not run_dir.is_dir():
-        raise NotADirectoryError(f"{run_dir}: not a directory")
-    path = run_dir / TICKS_FILE
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such file (not a run directory?)")
+    return as_rundir(run).derived("scoring.RunData", _build_run)
+
+
+def _build_run(rd: RunDir) -> RunData:
     gts: list[GTFrame] = []
     dets: list[DetFrame] = []
     tracks: list[TrackFrame | None] = []
-    with path.open("r", encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip():
-                continue
-            where = f"{path}:{lineno}"
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError as e:
-                raise RunDirError(f"{where}: not valid JSON ({e.msg}, column {e.colno})") from None
-            if not isinstance(rec, dict):
-                raise RunDirError(f"{where}: expected a JSON object per line")
-            gts.append(_parse_gt(rec.get("ground_truth"), f"{where}: ground_truth"))
-            dets.append(_parse_dets(rec.get("detections"), f"{where}: detections"))
-            tracks.append(_parse_tracks(rec.get("tracks"), f"{where}: tracks", rec.get("assessments")))
+    for i, rec in enumerate(rd.ticks):
+        where = rd.where(i)
+        gts.append(_parse_gt(rec.get("ground_truth"), f"{where}: ground_truth"))
+        dets.append(_parse_dets(rec.get("detections"), f"{where}: detections"))
+        tracks.append(_parse_tracks(rec.get("tracks"), f"{where}: tracks", rec.get("assessments")))
     has_tracks = any(t is not None for t in tracks)
     return RunData(
         gt=gts,
         dets=dets,
         tracks=[t if t is not None else _empty_tracks() for t in tracks] if has_tracks else None,
     )
-
-
-def read_metrics(run_dir: Path) -> dict:
-    """Existing ``metrics.json`` as a dict ({} if absent); RunDirError if it is not a JSON object."""
-    path = Path(run_dir) / METRICS_FILE
-    if not path.exists():
-        return {}
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as e:
-        raise RunDirError(
-            f"{path}:{e.lineno}: not valid JSON ({e.msg}); fix or delete it"
-        ) from None
-    if not isinstance(data, dict):
-        raise RunDirError(f"{path}: expected a JSON object")
-    return data
-
-
-def merge_sections(existing: dict, sections: dict[str, dict | list]) -> dict:
-    """``existing`` with each section's keys updated (foreign keys, also inside sections, kept)."""
-    out = dict(existing)
-    for name, values in sections.items():
-        old = out.get(name)
-        if isinstance(values, dict):
-            out[name] = {**old, **values} if isinstance(old, dict) else dict(values)
-        else:  # list sections (expectations) are replaced whole
-            out[name] = values
-    return out
-
-
-def write_metrics(run_dir: Path, metrics: dict) -> Path:
-    """Write ``metrics.json`` atomically (NaN -> null); returns its path."""
-    path = Path(run_dir) / METRICS_FILE
-    text = json.dumps(jsonable(metrics), indent=2, allow_nan=False) + "\n"
-    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
-    fd, tmp = tempfile.mkstemp(prefix=".metrics-", suffix=".json", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.chmod(tmp, mode)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def concat_runs(runs: list[RunData]) -> RunData:

@@ -1,9 +1,12 @@
 """Score a run directory against its ground truth: ``detection``, ``tracking``, ``estimation``.
 
-``score_run`` reads ``ticks.jsonl``, computes the three sections and merges them
-into ``metrics.json`` (other sections, and foreign keys inside these three, are
-kept; the file is replaced atomically, and only after everything was computed).
-``score_command`` is the body of ``lookahead score RUN_DIR``.
+``score_run`` reads the run directory through ``tools.sinks.rundir.RunDir`` (each
+file parsed once), computes every section (these three, and ``intent``, ``danger``,
+``closed_loop``, ``expectations``, ``timing`` from ``tools.scoring.intent`` / ``timing``)
+and merges them into ``metrics.json`` (other sections, and foreign keys inside these,
+are kept; the file is replaced atomically, and only after everything was computed).
+Suite and sweep totals are ``tools.scoring.totals``. ``score_command`` is the body of
+``lookahead score RUN_DIR``.
 
 Constants (defined and explained in the ``tools.scoring`` modules):
     IoU >= 0.5 for every match (``matching.IOU_THRESHOLD``).
@@ -29,17 +32,16 @@ from rich.table import Table
 
 from lookahead.tools.scoring.detection import evaluate_detection
 from lookahead.tools.scoring.estimation import evaluate_estimation
-from lookahead.tools.scoring.io import (
-    RunData,
-    RunDirError,
-    concat_runs,
-    load_run,
-    merge_sections,
-    read_metrics,
-    write_metrics,
-)
+from lookahead.tools.scoring.io import RunData, load_run
 from lookahead.tools.scoring.timing import load_timings, timing_section
 from lookahead.tools.scoring.tracking import evaluate_tracking
+from lookahead.tools.sinks.rundir import (
+    RunDir,
+    RunDirError,
+    as_rundir,
+    merge_sections,
+    write_metrics,
+)
 
 log = logging.getLogger(__name__)
 
@@ -78,32 +80,26 @@ def evaluate(run: RunData) -> dict[str, dict]:
     }
 
 
-def compute_sections(run_dir: Path) -> dict[str, dict]:
-    """The sections of a run directory (nothing written), with ``timing`` when recorded."""
+def compute_sections(run: RunDir | Path) -> dict[str, dict]:
+    """The sections of a run directory (nothing written), with ``timing`` when recorded.
+
+    ``ticks.jsonl`` is parsed once (``RunDir``): the frame arrays and the intent
+    fields are read from the same records.
+    """
     from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 
-    sections = evaluate(load_run(run_dir))
-    sections.update(intent_sections(load_intent_run(run_dir)))
-    timings = load_timings(run_dir)
+    rd = as_rundir(run)
+    sections = evaluate(load_run(rd))
+    sections.update(intent_sections(load_intent_run(rd)))
+    timings = load_timings(rd)
     if timings:
         sections["timing"] = timing_section(timings)
     return sections
 
 
-def score_suite(run_dirs: list[Path]) -> dict[str, dict]:
-    """Suite totals: every section recomputed over all runs' frames together."""
-    sections = evaluate(concat_runs([load_run(d) for d in run_dirs]))
-    stages: dict[str, list[float]] = {}
-    for d in run_dirs:
-        for k, v in load_timings(d).items():
-            stages.setdefault(k, []).extend(v)
-    if stages:
-        sections["timing"] = timing_section(stages)
-    return sections
-
-
-def score_run(run_dir: Path) -> dict:
-    """Score ``run_dir`` and merge the sections into its ``metrics.json``.
+def score_run(run: RunDir | Path) -> dict:
+    """Score a run directory (a path, or a ``RunDir`` whose parsed files are reused) and
+    merge the sections into its ``metrics.json``.
 
     Returns:
         The whole merged ``metrics.json`` content.
@@ -113,13 +109,13 @@ def score_run(run_dir: Path) -> dict:
         RunDirError: malformed ``ticks.jsonl`` line or unreadable ``metrics.json``
             (one-line message naming the file and line); nothing is written.
     """
-    run_dir = Path(run_dir)
-    sections = compute_sections(run_dir)
-    metrics = merge_sections(read_metrics(run_dir), sections)
-    path = write_metrics(run_dir, metrics)
+    rd = as_rundir(run)
+    sections = compute_sections(rd)
+    metrics = merge_sections(rd.read_metrics(), sections)
+    path = write_metrics(rd.path, metrics)
     d, t = sections["detection"], sections["tracking"]
     log.info("scored %s -> %s: precision %s recall %s ap50 %s mota %s",
-             run_dir, path, d["precision"], d["recall"], d["ap50"], t["mota"])
+             rd.path, path, d["precision"], d["recall"], d["ap50"], t["mota"])
     return metrics
 
 

@@ -2,24 +2,20 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
-TIMINGS_FILE = "timings.jsonl"
+from lookahead.tools.sinks.rundir import TIMINGS_FILE as TIMINGS_FILE  # re-exported
+from lookahead.tools.sinks.rundir import RunDir, as_rundir
 
 
-def load_timings(run_dir: Path) -> dict[str, list[float]]:
-    """Per-stage lists of ms; empty when the run has no timings file."""
-    path = Path(run_dir) / TIMINGS_FILE
+def load_timings(run: RunDir | Path) -> dict[str, list[float]]:
+    """Per-stage lists of ms (``RunDir.timings``); empty when the run has no timings file."""
     stages: dict[str, list[float]] = {}
-    if not path.is_file():
-        return stages
-    for line in path.read_text(encoding="utf-8").splitlines():
-        if line.strip():
-            for k, v in json.loads(line).items():
-                stages.setdefault(k, []).append(float(v))
+    for line in as_rundir(run).timings:
+        for k, v in line.items():
+            stages.setdefault(k, []).append(v)
     return stages
 
 

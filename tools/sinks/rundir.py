@@ -1,18 +1,40 @@
-"""The run directory: ``run.json``, ``ticks.jsonl``, ``timings.jsonl``.
+"""The run directory, written and read here only: ``run.json``, ``ticks.jsonl``,
+``timings.jsonl``, ``metrics.json`` (and a suite's or sweep's ``summary.json``).
 
 ``ticks.jsonl`` holds one TickRecord per line (images and timings excluded, so
 it is byte-identical for the same scenario, seed and version);
 ``timings.jsonl`` holds the per-stage timings (ms) of each line.
+
+Writing: ``RunDirWriter`` (the loop's sink) and, for tools that write run files
+themselves (replay), the encoders ``tick_line`` / ``timings_line`` /
+``write_run_json``; ``write_metrics`` (atomic) and ``write_summary``.
+
+Reading: ``RunDir(path)``. Its ``run`` (``run.json``), ``ticks`` (the records of
+``ticks.jsonl``, one dict per non-blank line, as written) and ``timings`` are
+parsed once, on first use, and kept; a corrupt line is a ``RunDirError`` naming
+``file:line``, a missing directory or file a one-line ``FileNotFoundError`` /
+``NotADirectoryError``. Numbers are decoded in one place, ``decode`` /
+``decode_array``: ``null`` is NaN and ``abs(v) >= NEVER`` (how ``sim.records.jsonable``
+writes +-inf) is +-inf. Readers that derive something from a run (the scorer's
+typed frames) keep it on the ``RunDir`` with ``derived``, so a command that
+passes one ``RunDir`` along parses each file once.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import platform
+import tempfile
+from collections.abc import Callable
+from functools import cached_property
 from importlib import metadata
 from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
 
 from lookahead.sim.records import NEVER as NEVER  # re-exported: the "never" sentinel of run files
 from lookahead.sim.records import TickRecord, jsonable
@@ -24,9 +46,48 @@ TIMINGS_FILE = "timings.jsonl"
 METRICS_FILE = "metrics.json"
 SUMMARY_FILE = "summary.json"  # a suite's (or sweep's) directory
 
+T = TypeVar("T")
+
 
 class OutputError(RuntimeError):
     """An output path that cannot be written; ``str()`` is one line."""
+
+
+class RunDirError(ValueError):
+    """Malformed run-directory content; ``str()`` is one line naming the file (and line)."""
+
+
+# --------------------------------------------------------------------------- numbers
+
+
+def decode(value: Any) -> float:
+    """A number of a run file as a float: ``null`` -> NaN, ``abs(v) >= NEVER`` -> +-inf."""
+    if value is None:
+        return math.nan
+    v = float(value)
+    return math.copysign(math.inf, v) if abs(v) >= NEVER else v
+
+
+def decode_array(values: Any) -> np.ndarray:
+    """A (nested) list of numbers as a float array, decoded as ``decode`` does.
+
+    Raises ``TypeError`` / ``ValueError`` for non-numbers or ragged lists (callers add where).
+    """
+    arr = np.array(values, dtype=np.float64)
+    never = np.abs(arr) >= NEVER
+    if never.any():
+        arr[never] = np.copysign(np.inf, arr[never])
+    return arr
+
+
+def is_number(value: Any) -> bool:
+    """A finite number as run and summary files carry it (bools count; the sentinel does not)."""
+    if isinstance(value, bool):
+        return True
+    return isinstance(value, int | float) and math.isfinite(decode(value))
+
+
+# --------------------------------------------------------------------------- writing
 
 
 def versions() -> dict[str, str]:
@@ -56,6 +117,67 @@ def prepare_dir(path: Path) -> Path:
     return path
 
 
+def tick_line(record: dict) -> str:
+    """One ``ticks.jsonl`` line (NaN -> null, +-inf -> +-NEVER, compact)."""
+    return json.dumps(jsonable(record), separators=(",", ":")) + "\n"
+
+
+def timings_line(timings: dict[str, float]) -> str:
+    """One ``timings.jsonl`` line: the stages' ms rounded to 1 us."""
+    return json.dumps({k: round(v, 3) for k, v in timings.items()}) + "\n"
+
+
+def write_run_json(run_dir: Path, run: dict) -> Path:
+    path = Path(run_dir) / RUN_FILE
+    path.write_text(json.dumps(jsonable(run), indent=2, sort_keys=True) + "\n")
+    return path
+
+
+def write_summary(out_dir: Path, summary: dict) -> Path:
+    """A suite's or sweep's ``summary.json``."""
+    path = Path(out_dir) / SUMMARY_FILE
+    path.write_text(json.dumps(jsonable(summary), indent=2) + "\n")
+    return path
+
+
+def read_summary(out_dir: Path) -> dict:
+    """A suite's or sweep's ``summary.json``; ``RunDirError`` (file:line) when it is not JSON."""
+    return _read_json(Path(out_dir) / SUMMARY_FILE)
+
+
+def write_metrics(run_dir: Path, metrics: dict) -> Path:
+    """Write ``metrics.json`` atomically (temporary file + ``os.replace``; NaN -> null).
+
+    ``metrics.json`` is shared by several scorers; concurrent read-modify-write by two of
+    them is not locked: run them in turn.
+    """
+    path = Path(run_dir) / METRICS_FILE
+    text = json.dumps(jsonable(metrics), indent=2, allow_nan=False) + "\n"
+    mode = path.stat().st_mode & 0o777 if path.exists() else 0o644
+    fd, tmp = tempfile.mkstemp(prefix=".metrics-", suffix=".json", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def merge_sections(existing: dict, sections: dict[str, dict | list]) -> dict:
+    """``existing`` with each section's keys updated (foreign keys, also inside sections, kept)."""
+    out = dict(existing)
+    for name, values in sections.items():
+        old = out.get(name)
+        if isinstance(values, dict):
+            out[name] = {**old, **values} if isinstance(old, dict) else dict(values)
+        else:  # list sections (expectations) are replaced whole
+            out[name] = values
+    return out
+
+
 class RunDirWriter:
     """A sink that writes the run directory of one scenario run.
 
@@ -63,7 +185,7 @@ class RunDirWriter:
     are directories or read-only); nothing is written or truncated before ``on_start``.
     """
 
-    FILES = ("run.json", "ticks.jsonl", "timings.jsonl")
+    FILES = (RUN_FILE, TICKS_FILE, TIMINGS_FILE)
 
     def __init__(self, out_dir: Path, scenario: Scenario, source: str | None = None) -> None:
         self.dir = prepare_dir(Path(out_dir))
@@ -80,7 +202,7 @@ class RunDirWriter:
         self.frames = 0
 
     def on_start(self, info: dict) -> None:
-        run = {
+        self._run = {
             "scenario": self.scenario.model_dump(mode="json"),
             "scenario_file": self.source,
             "seed": self.scenario.seed,
@@ -89,21 +211,135 @@ class RunDirWriter:
             "renderer": info.get("renderer"),
             "complete": False,
         }
-        (self.dir / "run.json").write_text(json.dumps(jsonable(run), indent=2, sort_keys=True) + "\n")
-        self._ticks = (self.dir / "ticks.jsonl").open("w", encoding="utf-8")
+        write_run_json(self.dir, self._run)
+        self._ticks = (self.dir / TICKS_FILE).open("w", encoding="utf-8")
 
     def on_tick(self, record: TickRecord) -> None:
-        self._ticks.write(json.dumps(record.to_dict(), separators=(",", ":")) + "\n")
+        self._ticks.write(tick_line(record.to_dict()))
         self._timings.append(record.timings)  # completed by the runner after the sinks return
         self.frames += 1
 
     def on_end(self, summary: dict) -> None:
         if self._ticks is not None:
             self._ticks.close()
-        with (self.dir / "timings.jsonl").open("w", encoding="utf-8") as f:
+        with (self.dir / TIMINGS_FILE).open("w", encoding="utf-8") as f:
             for t in self._timings:
-                f.write(json.dumps({k: round(v, 3) for k, v in t.items()}) + "\n")
-        run = json.loads((self.dir / "run.json").read_text())
-        run["complete"] = summary.get("error") is None
-        run["summary"] = jsonable(summary)
-        (self.dir / "run.json").write_text(json.dumps(run, indent=2, sort_keys=True) + "\n")
+                f.write(timings_line(t))
+        run = {**jsonable(self._run), "complete": summary.get("error") is None, "summary": jsonable(summary)}
+        write_run_json(self.dir, run)
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def read_jsonl(path: Path) -> tuple[list[dict], list[int]]:
+    """The objects of a JSON-lines file and their line numbers (blank lines skipped).
+
+    The one parser of ``ticks.jsonl`` and ``timings.jsonl``. Raises ``RunDirError``
+    ``<file>:<line>: ...`` for a line that is not a JSON object.
+    """
+    records: list[dict] = []
+    lines: list[int] = []
+    with Path(path).open("r", encoding="utf-8") as fh:
+        for lineno, line in enumerate(fh, start=1):
+            if not line.strip():
+                continue
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError as e:
+                raise RunDirError(f"{path}:{lineno}: not valid JSON ({e.msg}, column {e.colno})") from None
+            if not isinstance(rec, dict):
+                raise RunDirError(f"{path}:{lineno}: expected a JSON object per line")
+            records.append(rec)
+            lines.append(lineno)
+    return records, lines
+
+
+def _read_json(path: Path, what: str = "") -> dict:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as e:
+        raise RunDirError(f"{path}:{e.lineno}: not valid JSON ({e.msg}){what}") from None
+    if not isinstance(data, dict):
+        raise RunDirError(f"{path}: expected a JSON object")
+    return data
+
+
+def read_metrics(run_dir: Path) -> dict:
+    """Existing ``metrics.json`` as a dict ({} if absent); RunDirError if it is not a JSON object."""
+    path = Path(run_dir) / METRICS_FILE
+    if not path.exists():
+        return {}
+    return _read_json(path, "; fix or delete it")
+
+
+class RunDir:
+    """A run directory to read; each file is parsed once, on first use (module docstring)."""
+
+    def __init__(self, path: Path | str) -> None:
+        self.path = Path(path)
+        self._derived: dict[str, Any] = {}
+
+    def __repr__(self) -> str:
+        return f"RunDir({str(self.path)!r})"
+
+    def file(self, name: str) -> Path:
+        """``path/name``, checked: one-line ``FileNotFoundError`` / ``NotADirectoryError``."""
+        if not self.path.exists():
+            raise FileNotFoundError(f"{self.path}: no such run directory")
+        if not self.path.is_dir():
+            raise NotADirectoryError(f"{self.path}: not a directory")
+        f = self.path / name
+        if not f.is_file():
+            raise FileNotFoundError(f"{f}: no such file (not a run directory?)")
+        return f
+
+    def has(self, name: str) -> bool:
+        return (self.path / name).is_file()
+
+    @cached_property
+    def run(self) -> dict:
+        """``run.json`` (FileNotFoundError when absent; test ``has(RUN_FILE)`` first if optional)."""
+        return _read_json(self.file(RUN_FILE))
+
+    @cached_property
+    def _ticks(self) -> tuple[list[dict], list[int]]:
+        return read_jsonl(self.file(TICKS_FILE))
+
+    @property
+    def ticks(self) -> list[dict]:
+        """The records of ``ticks.jsonl`` as written (read them, do not change them)."""
+        return self._ticks[0]
+
+    def where(self, frame: int) -> str:
+        """``<ticks file>:<line>`` of record ``frame`` (for error messages)."""
+        return f"{self.path / TICKS_FILE}:{self._ticks[1][frame]}"
+
+    @cached_property
+    def timings(self) -> list[dict[str, float]]:
+        """Per-line stage timings (ms) of ``timings.jsonl``; [] when the run has none."""
+        if not self.has(TIMINGS_FILE):
+            return []
+        path = self.path / TIMINGS_FILE
+        records, lines = read_jsonl(path)
+        try:
+            return [{k: float(v) for k, v in rec.items()} for rec in records]
+        except (TypeError, ValueError):
+            bad = next(i for i, rec in enumerate(records)
+                       if not all(isinstance(v, int | float) for v in rec.values()))
+            raise RunDirError(f"{path}:{lines[bad]}: expected stage: milliseconds") from None
+
+    def read_metrics(self) -> dict:
+        """``metrics.json`` now ({} if absent; not cached: scorers rewrite it)."""
+        return read_metrics(self.path)
+
+    def derived(self, key: str, build: Callable[[RunDir], T]) -> T:
+        """``build(self)``, computed once per ``RunDir`` and kept under ``key``."""
+        if key not in self._derived:
+            self._derived[key] = build(self)
+        return self._derived[key]
+
+
+def as_rundir(run: RunDir | Path | str) -> RunDir:
+    """``run`` itself when it is a ``RunDir``, else a new one on that path."""
+    return run if isinstance(run, RunDir) else RunDir(run)
