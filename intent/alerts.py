@@ -19,6 +19,7 @@ from lookahead.intent.labels import (
     BEHAVIOUR_NAMES,
     LABEL_NAMES,
     LABEL_NAMES_ZH,
+    NEVER,
     Assessment,
     Behaviour,
     Label,
@@ -66,14 +67,14 @@ class Alert:
         d["level_name"] = Risk(self.level).name
         d["t"] = round(self.t, 4)
         d["range"] = round(self.range, 3)
-        d["ttc"] = round(min(self.ttc, 1e9), 3)
+        d["ttc"] = round(min(self.ttc, NEVER), 3)
         return d
 
 
 def reason_text(range_m: float, ttc: float, behaviour: int, label: int, level: int) -> tuple[str, str]:
     """Why, in English and Chinese."""
-    ttc_en = "no closing" if not np.isfinite(ttc) or ttc > 1e8 else f"TTC {ttc:.1f} s"
-    ttc_zh = "未接近" if not np.isfinite(ttc) or ttc > 1e8 else f"碰撞时间 {ttc:.1f} 秒"
+    ttc_en = "no closing" if not np.isfinite(ttc) or ttc >= NEVER else f"TTC {ttc:.1f} s"
+    ttc_zh = "未接近" if not np.isfinite(ttc) or ttc >= NEVER else f"碰撞时间 {ttc:.1f} 秒"
     b = Behaviour(behaviour)
     lab = Label(label)
     en = f"{Risk(level).name}: {LABEL_NAMES[lab]}, {BEHAVIOUR_NAMES[b]}, range {range_m:.1f} m, {ttc_en}"

@@ -58,12 +58,13 @@ class IntentConfig(BaseModel):
 
     def with_overrides(self, overrides: dict) -> IntentConfig:
         """A copy with a (possibly nested) dict of overrides merged in and validated."""
-        merged = _deep_merge(self.model_dump(), overrides or {})
+        merged = deep_merge(self.model_dump(), overrides or {})
         return IntentConfig.model_validate(merged)
 
 
-def _deep_merge(base: dict, over: dict) -> dict:
+def deep_merge(base: dict, over: dict) -> dict:
+    """``base`` updated by ``over``, nested mappings merged key by key (neither is changed)."""
     out = dict(base)
     for k, v in over.items():
-        out[k] = _deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+        out[k] = deep_merge(out[k], v) if isinstance(v, dict) and isinstance(out.get(k), dict) else v
     return out

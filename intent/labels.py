@@ -42,6 +42,11 @@ class Label(IntEnum):
     DANGER = 4
 
 
+#: A TTC (s) of "never" as run files write it: JSON has no inf, so +inf is written as ``NEVER``
+#: (-inf as ``-NEVER``, ``sim.records.jsonable``) and readers decode ``abs(v) >= NEVER`` back to
+#: +-inf (``tools.sinks.rundir``); displays show a TTC at or above it as none.
+NEVER = 1e9
+
 LABEL_NAMES = {
     Label.INITIALIZING: "initializing",
     Label.STABLE: "stable",

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lookahead.intent.config import IntentConfig
-from lookahead.intent.labels import Kinematics, assess
+from lookahead.intent.labels import NEVER, Kinematics, assess
 from lookahead.perception.camera import CameraModel, truncation
 from lookahead.perception.detections import CLASS_ID
 from lookahead.perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
@@ -83,7 +83,7 @@ class GroundTruth:
             "lateral_rate": r(self.lateral_rate, 3),
             "accel": r(self.accel, 3),
             "yaw_rate": r(self.yaw_rate, 4),
-            "ttc": r(np.minimum(self.ttc, 1e9), 3),
+            "ttc": r(np.minimum(self.ttc, NEVER), 3),
             "in_path": self.in_path.tolist(),
             "label": self.label.tolist(),
             "behaviour": self.behaviour.tolist(),

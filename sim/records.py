@@ -8,14 +8,11 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from lookahead.intent.labels import NEVER
 from lookahead.perception.detections import Detections
 from lookahead.perception.frame import Frame
 from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth
-
-#: +inf as written in run files (-inf is ``-NEVER``), e.g. a TTC of "never"; readers decode
-#: ``abs(value) >= NEVER`` back to +-inf (``lookahead.tools.sinks.rundir``).
-NEVER = 1e9
 
 
 def jsonable(obj: Any) -> Any:

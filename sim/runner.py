@@ -6,9 +6,8 @@ the camera renders a ``Frame``, ground truth is computed, the perception + inten
 decides, and a ``TickRecord`` goes to every sink. ``Runner.step`` advances one camera
 frame (the gym env steps with it); ``Runner.run`` loops over it to the end. Sinks are
 injected (observers) so ``sim`` never imports ``tools``. Each stage is timed (ms).
-
-``PerceptionStack``, ``build_detector``, ``resolve_detector`` and ``DEFAULT_MODEL`` live in
-``intent.stack`` / ``perception.config`` and are re-exported here for older imports.
+A setting the stack refuses (``SettingsError``, e.g. ``onnx`` without rendering) is the
+scenario's: the runner raises it as ``ScenarioError``.
 """
 
 from __future__ import annotations
@@ -21,13 +20,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from lookahead.intent import stack as _stack
 from lookahead.intent.alerts import Alert
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Assessment
-from lookahead.intent.stack import PerceptionStack, build_stack, resolve_detector  # noqa: F401  (re-exported)
+from lookahead.intent.stack import build_stack
 from lookahead.perception.camera import CameraModel
-from lookahead.perception.config import DEFAULT_MODEL, DetectorSpec, SettingsError  # noqa: F401  (re-exported)
+from lookahead.perception.config import SettingsError
 from lookahead.perception.detections import Detections
 from lookahead.perception.detectors.base import Detector, DetectorTruth
 from lookahead.perception.estimator import Estimates
@@ -63,12 +61,6 @@ def _as_scenario_error() -> Iterator[None]:
         raise
     except SettingsError as e:
         raise ScenarioError(str(e)) from None
-
-
-def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detector:
-    """``intent.stack.build_detector`` with its errors as ``ScenarioError`` (a scenario's detector)."""
-    with _as_scenario_error():
-        return _stack.build_detector(spec, seed, render)
 
 
 def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:

@@ -463,7 +463,8 @@ def _node_line(node: yaml.Node | None, loc: tuple) -> int | None:
     return line
 
 
-def _format_validation(path: str, err: ValidationError, root: yaml.Node | None) -> str:
+def format_validation(path: str, err: ValidationError, root: yaml.Node | None) -> str:
+    """One line for a validation error: ``file:line: field.path: message`` (line when ``root`` is given)."""
     first = err.errors()[0]
     loc = tuple(x for x in first["loc"] if not (isinstance(x, str) and x.startswith("function-")))
     field_path = ".".join(str(x) if not isinstance(x, int) else f"[{x}]" for x in loc).replace(".[", "[")
@@ -499,7 +500,7 @@ def parse_yaml_model(
     try:
         return model.model_validate(data)
     except ValidationError as e:
-        raise err(_format_validation(path, e, root).replace(": (top level): ", ": ")) from None
+        raise err(format_validation(path, e, root).replace(": (top level): ", ": ")) from None
 
 
 def parse_scenario(text: str, path: str = "<string>") -> Scenario:

@@ -27,6 +27,35 @@ console = Console(stderr=True)
 SCENARIO_HELP = "scenario YAML, or a packaged scenario's name (ped_crossing_nearside)"
 
 
+SCORE_ROWS = (  # lookahead score: (section, metric, format)
+    ("detection", "precision", "{:.3f}"),
+    ("detection", "recall", "{:.3f}"),
+    ("detection", "ap50", "{:.3f}"),
+    ("detection", "gt", "{}"),
+    ("detection", "tp", "{}"),
+    ("detection", "fp", "{}"),
+    ("tracking", "mota", "{:.3f}"),
+    ("tracking", "motp", "{:.3f}"),
+    ("tracking", "idf1", "{:.3f}"),
+    ("tracking", "hota", "{:.3f}"),
+    ("tracking", "id_switches", "{}"),
+    ("tracking", "fragmentations", "{}"),
+    ("tracking", "mostly_tracked", "{}"),
+    ("tracking", "fp", "{}"),
+    ("tracking", "fn", "{}"),
+    ("estimation", "range_rel_err_median", "{:.3f}"),
+    ("estimation", "range_abs_err_p90", "{:.2f} m"),
+    ("estimation", "speed_err_median", "{:.2f} m/s"),
+    ("estimation", "ttc_err_median", "{:.3f}"),
+    ("estimation", "n", "{}"),
+)
+
+
+def number(value: object, spec: str) -> str:
+    """``value`` formatted by ``spec``; None as a dash."""
+    return "—" if value is None else spec.format(value)
+
+
 def fail(message: str) -> NoReturn:
     """One ``error:`` line on stderr (no traceback) and exit code 2: how a user's mistake ends."""
     console.print(f"[bold red]error:[/] {message}", markup=True, highlight=False, soft_wrap=True)
@@ -36,21 +65,21 @@ def fail(message: str) -> NoReturn:
 def describe(exc: BaseException) -> str:
     """One line for an exception: an OS error names its file."""
     if isinstance(exc, OSError) and exc.filename is not None:
-        return f"cannot read {exc.filename}: {exc.strerror or exc}"
+        return f"{exc.filename}: {exc.strerror or exc}"
     return str(exc)
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that mean the user's input or environment is wrong (not a bug)."""
+    from lookahead.perception.config import SettingsError  # ScenarioError is one
     from lookahead.perception.detectors.onnx_detector import ModelError
-    from lookahead.sim.scenario import ScenarioError
     from lookahead.tools.detector.arch import ArchitectureError
     from lookahead.tools.detector.train import ResumeError
     from lookahead.tools.runs.regress import BaselineError
     from lookahead.tools.sinks.rundir import OutputError
     from lookahead.tools.sinks.store import StoreError
 
-    return (ScenarioError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
+    return (SettingsError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
             FileNotFoundError, PermissionError, NotADirectoryError, IsADirectoryError)
 
 
@@ -463,9 +492,26 @@ def bench_sim(
 @app.command()
 def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> None:
     """Score a run directory into its metrics.json (detection, tracking, estimation)."""
-    from lookahead.tools.scoring.run import score_command
+    from lookahead.tools.scoring.run import score_run
 
-    raise typer.Exit(score_command(run_dir))
+    try:
+        metrics = score_run(run_dir)
+    except (OSError, ValueError) as exc:  # RunDirError is a ValueError
+        fail(describe(exc))
+    summary = Table(title=f"{run_dir}/metrics.json")
+    for col, justify in (("section", "left"), ("metric", "left"), ("value", "right")):
+        summary.add_column(col, justify=justify)
+    for section, key, spec in SCORE_ROWS:
+        summary.add_row(section, key, number(metrics.get(section, {}).get(key), spec))
+    per_class = Table(title="detection per class")
+    for col in ("class", "gt", "tp", "fp", "precision", "recall", "ap50"):
+        per_class.add_column(col, justify="left" if col == "class" else "right")
+    for name, m in metrics.get("detection", {}).get("per_class", {}).items():
+        per_class.add_row(name, str(m["gt"]), str(m["tp"]), str(m["fp"]),
+                          *(number(m[k], "{:.3f}") for k in ("precision", "recall", "ap50")))
+    out = Console()
+    out.print(summary)
+    out.print(per_class)
 
 
 @app.command()
@@ -529,9 +575,13 @@ def report(
     path: Annotated[Path, typer.Argument(metavar="RUN_DIR|SUITE_DIR|SWEEP_DIR", help="run, suite or sweep directory")],
 ) -> None:
     """Write a self-contained report.html (metrics, plots, key frames) for a run, a suite or a sweep."""
-    from lookahead.tools.reports.report import report_command
+    from lookahead.tools.reports.report import ReportError, build_report
 
-    raise typer.Exit(report_command(path))
+    try:
+        out = build_report(path)
+    except (ReportError, OSError, ValueError, KeyError) as exc:  # RunDirError is a ValueError
+        fail(describe(exc))
+    typer.echo(out)
 
 
 @app.command("export-dataset")

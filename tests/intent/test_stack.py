@@ -98,8 +98,10 @@ def test_detector_settings_resolve_and_refuse_onnx_without_images():
 
 
 def test_the_simulator_reports_refused_settings_as_scenario_errors():
-    from lookahead.sim.runner import build_detector as sim_build_detector
-    from lookahead.sim.scenario import ScenarioError
+    from lookahead.sim.catalogue import SCENARIOS
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import ScenarioError, load_scenario, with_detector
 
+    sc = with_detector(load_scenario(SCENARIOS / "stationary_car.yaml"), "onnx")
     with pytest.raises(ScenarioError, match="onnx needs rendered frames"):
-        sim_build_detector(DetectorSpec(kind="onnx"), 0, False)
+        Runner(sc, render=False)

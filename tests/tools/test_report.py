@@ -14,7 +14,7 @@ import pytest
 
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
-from lookahead.tools.reports.report import REPORT_FILE, build_report, report_command
+from lookahead.tools.reports.report import REPORT_FILE, build_report
 from lookahead.tools.scoring.run import score_run
 from lookahead.tools.scoring.totals import score_suite
 from lookahead.tools.sinks.rundir import RunDirWriter
@@ -81,21 +81,21 @@ def test_run_report_is_self_contained(run_dir: Path) -> None:
     assert "http" not in "".join(v for _, _, v in refs.refs if not v.startswith("data:"))
 
 
-def test_report_command_scores_first_when_metrics_missing(run_dir: Path, tmp_path: Path, capsys) -> None:
+def test_report_command_scores_first_when_metrics_missing(run_dir: Path, tmp_path: Path, capsys, lookahead) -> None:
     bare = tmp_path / "bare"
     shutil.copytree(run_dir, bare)
     (bare / "metrics.json").unlink()
-    assert report_command(bare) == 0
+    assert lookahead("report", bare) == 0
     assert (bare / "metrics.json").is_file() and (bare / REPORT_FILE).is_file()
     assert capsys.readouterr().out.strip().endswith(REPORT_FILE)
 
 
 @pytest.mark.parametrize("kind", ["missing", "empty"])
-def test_report_command_bad_path(tmp_path: Path, capsys, kind: str) -> None:
+def test_report_command_bad_path(tmp_path: Path, capsys, lookahead, kind: str) -> None:
     path = tmp_path / "nope"
     if kind == "empty":
         path.mkdir()
-    assert report_command(path) == 2
+    assert lookahead("report", path) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and str(path) in err
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from lookahead.tools.scoring.run import score_command, score_run
+from lookahead.tools.scoring.run import score_run
 
 PED, CAR = 0, 4
 A = [0.0, 0.0, 10.0, 20.0]  # pedestrian box, 10 x 20 px
@@ -385,9 +385,9 @@ def test_merge_keeps_foreign_sections_and_keys(tmp_path):
     assert json.loads((run / "metrics.json").read_text()) == on_disk
 
 
-def test_score_command_prints_tables(tmp_path, capsys):
+def test_score_command_prints_tables(tmp_path, capsys, lookahead):
     run = write_run(tmp_path / "r", tracking_frames())
-    assert score_command(run) == 0
+    assert lookahead("score", run) == 0
     out = capsys.readouterr().out
     assert "mota" in out and "pedestrian" in out
 
@@ -403,7 +403,7 @@ def test_score_command_prints_tables(tmp_path, capsys):
         ("bad_metrics", "metrics.json:1: not valid JSON"),
     ],
 )
-def test_errors_exit_2_with_one_line_and_nothing_overwritten(tmp_path, capsys, setup, needle):
+def test_errors_exit_2_with_one_line_and_nothing_overwritten(tmp_path, capsys, lookahead, setup, needle):
     run = tmp_path / "r"
     good = json.dumps({"t": 0.0, "ground_truth": gt(), "detections": dets(), "tracks": None})
     metrics = '{"intent": {"accuracy": 1.0}}'
@@ -421,7 +421,7 @@ def test_errors_exit_2_with_one_line_and_nothing_overwritten(tmp_path, capsys, s
         (run / "ticks.jsonl").write_text(good + "\n")
         metrics = "{oops"
         (run / "metrics.json").write_text(metrics)
-    assert score_command(run) == 2
+    assert lookahead("score", run) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error: ") and needle in err[0], err
     if setup != "missing_dir":

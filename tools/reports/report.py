@@ -38,7 +38,6 @@ from __future__ import annotations
 import json
 import logging
 import math
-import sys
 from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -571,22 +570,3 @@ def build_report(path: Path) -> Path:
 
         return build_sweep_report(path) if is_sweep_dir(path) else build_suite_report(path)
     raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")
-
-
-def report_command(path: Path) -> int:
-    """CLI body of ``lookahead report RUN_DIR|SUITE_DIR``: 0, or 2 with one ``error:`` line."""
-    from lookahead.tools.scoring.io import RunDirError
-
-    try:
-        out = build_report(Path(path))
-    except (ReportError, RunDirError, OSError, ValueError, KeyError) as exc:
-        msg = f"{exc.filename}: {exc.strerror}" if isinstance(exc, OSError) and exc.filename else str(exc)
-        print(f"error: {msg}", file=sys.stderr)
-        return 2
-    print(out)
-    return 0
-
-
-if __name__ == "__main__":
-    logging.basicConfig(level=logging.INFO)
-    sys.exit(report_command(Path(sys.argv[1])) if len(sys.argv) == 2 else 2)

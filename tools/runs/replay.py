@@ -3,7 +3,7 @@
 A run directory's ``ticks.jsonl`` keeps, per camera frame, the detections the
 tracker saw, the ego odometry, the time, and the ground truth; ``run.json``
 keeps the scenario (camera, tracker / estimator / intent / alert settings).
-``replay_run`` feeds those detections through a fresh ``sim.runner.PerceptionStack``
+``replay_run`` feeds those detections through a fresh stack (``intent.stack.build_stack``)
 -- the very object the closed loop uses, with a detector that hands back the
 recorded boxes -- and writes a new run directory: ``run.json`` (the source's,
 plus a ``replay`` entry), ``ticks.jsonl`` (every line of the source with
@@ -53,7 +53,7 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from lookahead.intent.config import IntentConfig
+from lookahead.intent.stack import build_stack
 from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.frame import EgoOdometry, Frame
@@ -195,7 +195,7 @@ def replay_run(
     replay's ``run.json`` carries the resulting scenario).
     """
     from lookahead.sim.aeb import Aeb
-    from lookahead.sim.runner import PerceptionStack, camera_from_scenario
+    from lookahead.sim.runner import camera_from_scenario
 
     source, out_dir = RunDir(run_dir), Path(out_dir)
     run_dir = source.path
@@ -207,16 +207,9 @@ def replay_run(
     scenario = _with_overrides(scenario, overrides or {})
     perturb = perturb or Perturbation()
     camera = camera_from_scenario(scenario)
-    p = scenario.perception
-    from lookahead.perception.estimator import EstimatorConfig
-    from lookahead.perception.tracker import TrackerConfig
-
-    intent_config = IntentConfig().with_overrides(scenario.intent)
     detector = RecordedDetector()
-    stack = PerceptionStack(
-        detector, camera, scenario.camera.rate, intent_config, TrackerConfig(**p.tracker),
-        EstimatorConfig(**p.estimator), alert_config=scenario.alerts,
-    )
+    stack = build_stack(scenario.perception, camera, scenario.camera.rate, intent=scenario.intent,
+                        alerts=scenario.alerts, detector=detector, render=False)
     aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
     sim_dt = 1.0 / scenario.rate
     perturber = Perturber(perturb, scenario.seed, camera.width, camera.height) if perturb.active else None
@@ -285,16 +278,16 @@ def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
                          "expected tracker, estimator, intent, alerts")
     if not overrides:
         return scenario
-    from lookahead.intent.config import _deep_merge
+    from lookahead.intent.config import deep_merge
 
     data = scenario.model_dump(mode="json")
     for key in ("tracker", "estimator"):
         if key in overrides:
-            data["perception"][key] = _deep_merge(data["perception"].get(key) or {}, overrides[key])
+            data["perception"][key] = deep_merge(data["perception"].get(key) or {}, overrides[key])
     if "intent" in overrides:
-        data["intent"] = _deep_merge(data.get("intent") or {}, overrides["intent"])
+        data["intent"] = deep_merge(data.get("intent") or {}, overrides["intent"])
     if "alerts" in overrides:
-        data["alerts"] = _deep_merge(data.get("alerts") or {}, overrides["alerts"])
+        data["alerts"] = deep_merge(data.get("alerts") or {}, overrides["alerts"])
     return Scenario.model_validate(data)
 
 

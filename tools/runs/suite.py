@@ -107,7 +107,7 @@ def run_suite(
     from lookahead.tools.sinks.rundir import prepare_dir, write_summary
 
     name, paths = load_suite(suite_path)
-    from lookahead.sim.runner import build_detector
+    from lookahead.intent.stack import build_detector
     from lookahead.sim.scenario import with_detector
 
     checked: set[str] = set()

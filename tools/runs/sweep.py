@@ -69,7 +69,7 @@ from lookahead.sim.scenario import (
     Scenario,
     ScenarioError,
     Strict,
-    _format_validation,
+    format_validation,
     load_scenario,
     parse_yaml_model,
     read_text_file,
@@ -525,7 +525,7 @@ def expand(spec: SweepSpec, base: Scenario, sweep_file: str = "<sweep>") -> list
             named = {f"set: {k} = {json.dumps(spec.set[k])}": v for k, v in set_locs.items()}
             named.update({f"{section[k]}: {k} = {json.dumps(params[k])}": v for k, v in locs.items()})
             who = _culprit(loc, named) or "variant " + ", ".join(f"{k} = {json.dumps(v)}" for k, v in params.items())
-            msg = _format_validation("", e, None).removeprefix(": ").removeprefix("(top level): ")
+            msg = format_validation("", e, None).removeprefix(": ").removeprefix("(top level): ")
             raise SweepError(f"{sweep_file}: {who}: {msg}") from None
         variants[vid] = Variant(vid, params, sc)
     return list(variants.values())

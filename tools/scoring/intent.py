@@ -148,12 +148,12 @@ def evaluate_intent(run: IntentRun) -> dict:
         r = tp / (tp + fn) if tp + fn else None
         f1 = 2 * p * r / (p + r) if p is not None and r is not None and p + r > 0 else (0.0 if (tp + fp + fn) else None)
         name = LABEL_NAMES[Label(lab)]
-        per_class[name] = {"precision": _r(p), "recall": _r(r), "f1": _r(f1), "support": int(conf[i, :].sum())}
+        per_class[name] = {"precision": rounded(p), "recall": rounded(r), "f1": rounded(f1), "support": int(conf[i, :].sum())}
         if conf[i, :].sum() > 0 or conf[:, i].sum() > 0:
             f1s.append(f1 or 0.0)
     return {
-        "accuracy": _r(np.trace(conf) / total) if total else None,
-        "macro_f1": _r(float(np.mean(f1s))) if f1s else None,
+        "accuracy": rounded(np.trace(conf) / total) if total else None,
+        "macro_f1": rounded(float(np.mean(f1s))) if f1s else None,
         "per_class": per_class,
         "confusion": {"labels": [LABEL_NAMES[Label(k)] for k in index], "matrix": conf.tolist()},
         "n": total,
@@ -195,13 +195,13 @@ def evaluate_danger(run: IntentRun) -> dict:
             mine = [a for a in raised if a["actor"] == actor and t[start] - ALERT_LEAD_WINDOW_S <= a["t"] <= t[end]]
             seen = [f for f in run.gt_visible[actor] if f <= end]
             ttc_seen = run.gt_ttc[actor].get(min(seen), float("inf")) if seen else None
-            ev = {"actor": run.names.get(actor, str(actor)), "t_start": _r(t[start]), "t_end": _r(t[end]),
+            ev = {"actor": run.names.get(actor, str(actor)), "t_start": rounded(t[start]), "t_end": rounded(t[end]),
                   "warned": bool(mine), "lead_time_s": None,
-                  "ttc_when_first_visible": _r(min(ttc_seen, NEVER)) if ttc_seen is not None else None}
+                  "ttc_when_first_visible": rounded(min(ttc_seen, NEVER)) if ttc_seen is not None else None}
             if mine:
                 first = min(mine, key=lambda a: a["t"])
                 ttc = run.gt_ttc[actor].get(first["frame"], float("inf"))
-                ev["lead_time_s"] = _r(ttc) if np.isfinite(ttc) else None
+                ev["lead_time_s"] = rounded(ttc) if np.isfinite(ttc) else None
                 if np.isfinite(ttc):
                     leads.append(ttc)
             else:
@@ -220,10 +220,10 @@ def evaluate_danger(run: IntentRun) -> dict:
         "missed": missed,
         "alerts": n_al,
         "false_alarms": false_alarms,
-        "miss_rate": _r(missed / n_ev) if n_ev else None,
-        "false_alarm_rate": _r(false_alarms / n_al) if n_al else None,
-        "lead_time_s_median": _r(float(np.median(leads))) if leads else None,
-        "lead_time_s_min": _r(float(np.min(leads))) if leads else None,
+        "miss_rate": rounded(missed / n_ev) if n_ev else None,
+        "false_alarm_rate": rounded(false_alarms / n_al) if n_al else None,
+        "lead_time_s_median": rounded(float(np.median(leads))) if leads else None,
+        "lead_time_s_min": rounded(float(np.min(leads))) if leads else None,
         "event_list": events,
     }
 
@@ -233,10 +233,10 @@ def evaluate_closed_loop(run: IntentRun) -> dict:
     finite = [x for x in run.gt_inpath_ttc if np.isfinite(x)]
     return {
         "collision": bool(first),
-        "impact_speed": _r(abs(first["relative_speed"])) if first else 0.0,
+        "impact_speed": rounded(abs(first["relative_speed"])) if first else 0.0,
         "collided_with": first["name"] if first else None,
-        "min_ttc": _r(min(finite)) if finite else None,
-        "aeb_active_s": _r(run.aeb_frames * (float(np.median(np.diff(run.t))) if len(run.t) > 1 else 0.0)),
+        "min_ttc": rounded(min(finite)) if finite else None,
+        "aeb_active_s": rounded(run.aeb_frames * (float(np.median(np.diff(run.t))) if len(run.t) > 1 else 0.0)),
     }
 
 
@@ -295,5 +295,6 @@ def intent_sections(run: IntentRun) -> dict:
     return sections
 
 
-def _r(x) -> float | None:
+def rounded(x) -> float | None:
+    """A metric as written: rounded to 4 decimals, None kept."""
     return None if x is None else round(float(x), 4)

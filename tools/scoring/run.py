@@ -24,11 +24,7 @@ Constants (defined and explained in the ``tools.scoring`` modules):
 from __future__ import annotations
 
 import logging
-import sys
 from pathlib import Path
-
-from rich.console import Console
-from rich.table import Table
 
 from lookahead.tools.scoring.detection import evaluate_detection
 from lookahead.tools.scoring.estimation import evaluate_estimation
@@ -37,7 +33,6 @@ from lookahead.tools.scoring.timing import load_timings, timing_section
 from lookahead.tools.scoring.tracking import evaluate_tracking
 from lookahead.tools.sinks.rundir import (
     RunDir,
-    RunDirError,
     as_rundir,
     merge_sections,
     write_metrics,
@@ -47,28 +42,6 @@ log = logging.getLogger(__name__)
 
 SECTIONS = ("detection", "tracking", "estimation")
 
-_TABLE_ROWS = (
-    ("detection", "precision", "{:.3f}"),
-    ("detection", "recall", "{:.3f}"),
-    ("detection", "ap50", "{:.3f}"),
-    ("detection", "gt", "{}"),
-    ("detection", "tp", "{}"),
-    ("detection", "fp", "{}"),
-    ("tracking", "mota", "{:.3f}"),
-    ("tracking", "motp", "{:.3f}"),
-    ("tracking", "idf1", "{:.3f}"),
-    ("tracking", "hota", "{:.3f}"),
-    ("tracking", "id_switches", "{}"),
-    ("tracking", "fragmentations", "{}"),
-    ("tracking", "mostly_tracked", "{}"),
-    ("tracking", "fp", "{}"),
-    ("tracking", "fn", "{}"),
-    ("estimation", "range_rel_err_median", "{:.3f}"),
-    ("estimation", "range_abs_err_p90", "{:.2f} m"),
-    ("estimation", "speed_err_median", "{:.2f} m/s"),
-    ("estimation", "ttc_err_median", "{:.3f}"),
-    ("estimation", "n", "{}"),
-)
 
 
 def evaluate(run: RunData) -> dict[str, dict]:
@@ -117,49 +90,3 @@ def score_run(run: RunDir | Path) -> dict:
     log.info("scored %s -> %s: precision %s recall %s ap50 %s mota %s",
              rd.path, path, d["precision"], d["recall"], d["ap50"], t["mota"])
     return metrics
-
-
-def _fmt(value: object, spec: str) -> str:
-    return "—" if value is None else spec.format(value)
-
-
-def metrics_tables(metrics: dict, title: str) -> list[Table]:
-    """Rich tables of the scored sections: a summary and detection per class."""
-    summary = Table(title=title)
-    for col, justify in (("section", "left"), ("metric", "left"), ("value", "right")):
-        summary.add_column(col, justify=justify)
-    for section, key, spec in _TABLE_ROWS:
-        summary.add_row(section, key, _fmt(metrics.get(section, {}).get(key), spec))
-    per_class = Table(title="detection per class")
-    for col in ("class", "gt", "tp", "fp", "precision", "recall", "ap50"):
-        per_class.add_column(col, justify="left" if col == "class" else "right")
-    for name, m in metrics.get("detection", {}).get("per_class", {}).items():
-        per_class.add_row(
-            name, str(m["gt"]), str(m["tp"]), str(m["fp"]),
-            *(_fmt(m[k], "{:.3f}") for k in ("precision", "recall", "ap50")),
-        )
-    return [summary, per_class]
-
-
-def _describe(exc: Exception) -> str:
-    if isinstance(exc, OSError) and exc.filename is not None:
-        return f"{exc.filename}: {exc.strerror or exc}"
-    return str(exc)
-
-
-def score_command(run_dir: Path) -> int:
-    """CLI body of ``lookahead score RUN_DIR``: score, print tables; 0, or 2 with one
-    ``error: ...`` line on stderr when the run directory is missing or malformed."""
-    try:
-        metrics = score_run(Path(run_dir))
-    except (OSError, RunDirError, ValueError) as exc:
-        print(f"error: {_describe(exc)}", file=sys.stderr)
-        return 2
-    console = Console()
-    for table in metrics_tables(metrics, f"{run_dir}/metrics.json"):
-        console.print(table)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(score_command(Path(sys.argv[1])) if len(sys.argv) == 2 else 2)

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from lookahead.intent.labels import LABEL_NAMES, Label
-from lookahead.tools.scoring.intent import SCORED_LABELS, _r
+from lookahead.tools.scoring.intent import SCORED_LABELS, rounded
 from lookahead.tools.scoring.io import RunData, concat_runs, load_run
 from lookahead.tools.scoring.run import evaluate
 from lookahead.tools.scoring.timing import load_timings, timing_section
@@ -81,7 +81,7 @@ def intent_totals(per_run: Sequence[dict]) -> dict:
         p = tp / (tp + fp) if tp + fp else None
         r = tp / (tp + fn) if tp + fn else None
         f1 = 2 * p * r / (p + r) if p and r else (0.0 if (tp + fp + fn) else None)
-        per_class[name] = {"precision": _r(p), "recall": _r(r), "f1": _r(f1), "support": int(conf[i, :].sum())}
+        per_class[name] = {"precision": rounded(p), "recall": rounded(r), "f1": rounded(f1), "support": int(conf[i, :].sum())}
         if tp + fp + fn:
             f1s.append(f1 or 0.0)
     events = [e for m in runs for e in m["danger"]["event_list"]]
@@ -93,8 +93,8 @@ def intent_totals(per_run: Sequence[dict]) -> dict:
     hits = [m["closed_loop"] for m in runs]
     return {
         "intent": {
-            "accuracy": _r(np.trace(conf) / total) if total else None,
-            "macro_f1": _r(float(np.mean(f1s))) if f1s else None,
+            "accuracy": rounded(np.trace(conf) / total) if total else None,
+            "macro_f1": rounded(float(np.mean(f1s))) if f1s else None,
             "per_class": per_class,
             "confusion": {"labels": labels, "matrix": conf.tolist()},
             "n": total,
@@ -102,15 +102,15 @@ def intent_totals(per_run: Sequence[dict]) -> dict:
         },
         "danger": {
             "events": n_ev, "missed": missed, "alerts": alerts, "false_alarms": fa,
-            "miss_rate": _r(missed / n_ev) if n_ev else None,
-            "false_alarm_rate": _r(fa / alerts) if alerts else None,
-            "lead_time_s_median": _r(float(np.median(leads))) if leads else None,
-            "lead_time_s_min": _r(float(np.min(leads))) if leads else None,
+            "miss_rate": rounded(missed / n_ev) if n_ev else None,
+            "false_alarm_rate": rounded(fa / alerts) if alerts else None,
+            "lead_time_s_median": rounded(float(np.median(leads))) if leads else None,
+            "lead_time_s_min": rounded(float(np.min(leads))) if leads else None,
         },
         "closed_loop": {
             "runs": len(hits),
             "collisions": sum(1 for h in hits if h["collision"]),
-            "impact_speed_max": _r(max([h["impact_speed"] or 0.0 for h in hits], default=0.0)),
+            "impact_speed_max": rounded(max([h["impact_speed"] or 0.0 for h in hits], default=0.0)),
         },
         "expectations": {
             "total": sum(len(m.get("expectations", [])) for m in runs),

@@ -36,7 +36,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from lookahead.sim.records import NEVER as NEVER  # re-exported: the "never" sentinel of run files
+from lookahead.intent.labels import NEVER
 from lookahead.sim.records import TickRecord, jsonable
 from lookahead.sim.scenario import Scenario
 

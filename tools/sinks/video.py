@@ -40,7 +40,7 @@ import cv2
 import numpy as np
 
 from lookahead.intent.alerts import Alert
-from lookahead.intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, Label, Risk, risk_colour
+from lookahead.intent.labels import LABEL_NAMES, LABEL_NAMES_ZH, NEVER, Label, Risk, risk_colour
 from lookahead.perception.detections import CLASSES
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.records import TickRecord
@@ -466,7 +466,7 @@ class Overlay:
         r, v, ttc = rows["range"][i], rows["speed"][i], rows["ttc"][i]
         rng = f"{r:.1f}m" if np.isfinite(r) else "-m"
         spd = f"{v:.0f}km/h" if np.isfinite(v) else "-km/h"
-        ttc_s = f"TTC {ttc:.1f}s" if np.isfinite(ttc) and ttc < 1e8 else "TTC -"
+        ttc_s = f"TTC {ttc:.1f}s" if np.isfinite(ttc) and ttc < NEVER else "TTC -"
         return line1, f"{rng} {spd} {ttc_s}"
 
     def _draw_tracks(self, img: np.ndarray, rows: dict[str, np.ndarray], st: _Style, min_y: int) -> None:
