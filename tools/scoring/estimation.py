@@ -37,7 +37,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from lookahead.tools.scoring.io import NEVER, GTFrame, RunData, TrackFrame
+from lookahead.intent.labels import NEVER
+from lookahead.tools.scoring.io import GTFrame, RunData, TrackFrame
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 
 UNOCCLUDED_MIN_VISIBLE_FRACTION = 0.9

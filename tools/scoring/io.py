@@ -10,7 +10,7 @@ or four ``null`` s) becomes a NaN row. Frames are numbered by their position in 
 file (0-based), blank lines are skipped.
 
 ``metrics.json`` is read, merged and written atomically by ``tools.sinks.rundir``
-(``read_metrics``, ``merge_sections``, ``write_metrics``, re-exported here).
+(``read_metrics``, ``merge_sections``, ``write_metrics``).
 """
 
 from __future__ import annotations
@@ -24,17 +24,11 @@ import numpy as np
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Label
 from lookahead.perception.tracker import TrackState
-from lookahead.tools.sinks.rundir import (  # noqa: F401  (re-exported: the scorers' names)
-    METRICS_FILE,
-    NEVER,
-    TICKS_FILE,
+from lookahead.tools.sinks.rundir import (
     RunDir,
     RunDirError,
     as_rundir,
     decode_array,
-    merge_sections,
-    read_metrics,
-    write_metrics,
 )
 
 _CONFIRMED = (TrackState.CONFIRMED.name.lower(), int(TrackState.CONFIRMED))
