@@ -51,7 +51,7 @@ and re-lit: ``L = J * (a * c_amb + E_head * c_head + E_lamp * c_lamp) + glow``:
   high beam: level, 11 / 4 deg, 3x brighter. ``r`` = lamp distance, ``i`` = incidence
   angle on the surface normal estimated from the depth map (cross product of the
   back-projected points' image gradients; across depth edges, a face toward the camera);
-* street lamps (the renderer's lamp posts, ``lamp_heads``; within 90 m ahead):
+* street lamps (the scene's lamp posts, ``sim.roadside.lamp_heads``; within 90 m ahead):
   ``E = Is * cos^2(theta) * cos(i) / r^2``, ``theta`` off straight down, plus a Gaussian
   glow sprite on each unoccluded lamp head;
 * illumination is computed at half resolution (it is smooth) and resized;
@@ -78,6 +78,7 @@ import numpy as np
 
 from lookahead.perception.camera import CameraModel
 from lookahead.sim.layout import RoadLayout
+from lookahead.sim.roadside import lamp_heads  # also importable from here, as before
 from lookahead.sim.scenario import Scenario, WeatherSpec
 
 log = logging.getLogger(__name__)
@@ -97,7 +98,6 @@ _C_HEAD = (1.0, 0.97, 0.9)
 _C_LAMP = (1.0, 0.78, 0.5)  # sodium-ish street light
 _LAMP_POWER = 60.0  # Is: E = 1.3 on the ground straight under a lamp
 _LAMP_REACH = 90.0  # m ahead of the ego; lamps further away light too little to matter
-_LAMP_HEIGHT = 6.85  # m, underside of the lamp head (sim.renderer._post_links)
 _NIGHT_TOP = 4.0  # linear sensor signal at the top of the night tone table
 _NOISE_PAD = 32  # the sensor-noise bank is this much larger than the image
 
@@ -151,35 +151,6 @@ def smooth_field(rng: np.random.Generator, n: int, corr_cells: float) -> np.ndar
     spec = np.fft.fft2(rng.standard_normal((n, n))) * np.exp(-((np.pi * corr_cells) ** 2) * k2)
     f = np.fft.ifft2(spec).real
     return ((f - f.mean()) / f.std()).astype(np.float32)
-
-
-def lamp_heads(layout: RoadLayout) -> np.ndarray:
-    """(N, 3) world positions (m) of the lamp heads ``sim.renderer`` draws on ``layout``.
-
-    Mirrors ``Renderer._add_structures``: posts every 30 m from 10 m along each structure
-    zone's long axis, 0.4 m inside its road side, the head 1.25 m further toward the road
-    at ``_LAMP_HEIGHT``. tests/sim/test_weather.py checks the renderer draws them there.
-    """
-    from lookahead.sim.renderer import (
-        _disjoint,  # the renderer's own asphalt split (same side choice)
-    )
-
-    asphalt = _disjoint(layout.asphalt)
-    road = np.array([[(a.x0 + a.x1) / 2, (a.y0 + a.y1) / 2] for a in asphalt]).reshape(-1, 2)
-    out = []
-    for z in layout.structure_zones:
-        origin, d, length, depth = z.long_axis()
-        n_posts = int((length - 10.0) // 30.0) + 1
-        if int((length - 6.0) // 12.0) + 1 <= 0 or n_posts <= 0:
-            continue
-        normal = np.array([-d[1], d[0]])
-        rel = road - origin
-        nearest = rel[np.argmin(np.abs(rel @ normal))] if len(road) else -normal
-        side = 1.0 if float(nearest @ normal) > 0 else -1.0
-        base = origin + normal * side * (depth / 2 - 0.4 + 1.25)
-        xy = base[None, :] + (10.0 + 30.0 * np.arange(n_posts))[:, None] * d[None, :]
-        out.append(np.column_stack([xy, np.full(n_posts, _LAMP_HEIGHT)]))
-    return np.concatenate(out) if out else np.zeros((0, 3))
 
 
 def _add_glow(lin: np.ndarray, u: float, v: float, size: float) -> None:
