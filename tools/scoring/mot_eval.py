@@ -214,7 +214,7 @@ def evaluate_mot(
 #:   ego car, whose image motion accelerates with perspective.
 #: * scores: ``normalise_scores`` with ``SCORE_PERCENTILE`` 75.
 #:
-#: Evidence (tests/tools/test_mot_real.py, MOT15 TUD-Campus, TUD-Stadtmitte, KITTI-17,
+#: Evidence (tests/tools/scoring/test_mot_real.py, MOT15 TUD-Campus, TUD-Stadtmitte, KITTI-17,
 #: KITTI-13): with these settings MOTA, IDF1 and HOTA beat SORT on each sequence, and
 #: a leave-one-sequence-out selection of acceleration noise, score percentile and
 #: min_hits (chosen on three sequences, scored on the fourth) picks acceleration 1 or

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from lookahead.tools.cli import app
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_bench_sinks_file_shape(tmp_path):

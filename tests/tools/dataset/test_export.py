@@ -18,7 +18,7 @@ from lookahead.perception.tracker import TrackState
 from lookahead.sim.scenario import load_scenario
 from lookahead.tools.dataset.export import FORMATS, export_dataset, export_scenarios
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SCENARIO = ROOT / "scenarios" / "urban_mix.yaml"  # many classes in view from the start
 DURATION, EVERY = 1.5, 2
 TOL_PX = 0.5

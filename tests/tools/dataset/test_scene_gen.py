@@ -15,7 +15,7 @@ from lookahead.tools.dataset.scene_gen import (
     split_seeds,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SHIPPED = ROOT / "scenarios" / "generators" / "detector.yaml"
 
 

@@ -17,7 +17,7 @@ from lookahead.tools.detector.evaluate import evaluate_split, recall_at_precisio
 from lookahead.tools.detector.model import CenterDet, Decoded  # noqa: E402
 from lookahead.tools.detector.train import TrainConfig, focal_loss, train  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 class _Oracle(torch.nn.Module):

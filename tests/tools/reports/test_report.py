@@ -19,7 +19,7 @@ from lookahead.tools.scoring.run import score_run
 from lookahead.tools.scoring.totals import score_suite
 from lookahead.tools.sinks.rundir import RunDirWriter
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SCENARIO = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
 
 

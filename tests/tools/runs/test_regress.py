@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from lookahead.tools.cli import app
 from lookahead.tools.runs.regress import compare, markdown
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SMOKE = ROOT / "scenarios" / "suites" / "smoke.yaml"
 BASELINE = ROOT / "scenarios" / "suites" / "smoke.baseline.json"
 

@@ -12,7 +12,7 @@ import yaml
 from lookahead.tools.runs.replay import Perturbation, Perturber, replay_run, replay_suite
 from lookahead.tools.runs.suite import run_one
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 #: Recorded values carry ticks.jsonl's rounding (boxes 0.01 px, odometry 1e-4): replayed floats
 #: agree to about that, in their units (m, m/s, s, px).
 FLOAT_TOL = {"xyxy": 0.011, "velocity_px": 0.2, "range": 0.05, "lateral": 0.01, "range_rate": 0.1,

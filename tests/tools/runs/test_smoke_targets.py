@@ -8,7 +8,7 @@ import pytest
 
 from lookahead.tools.runs.suite import run_suite
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module")

@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 from lookahead.tools.cli import app
 from lookahead.tools.runs.sweep import SweepError, is_complete, load_sweep, run_sweep, variant_id
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 CAR = ROOT / "scenarios" / "stationary_car.yaml"
 PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
 cli = CliRunner()

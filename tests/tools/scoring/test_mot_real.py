@@ -59,7 +59,7 @@ from lookahead.tools.scoring.mot_eval import (
     track_records,
 )
 
-DATA = Path(__file__).resolve().parents[1] / "data" / "mot15"
+DATA = Path(__file__).resolve().parents[3] / "tests" / "data" / "mot15"
 SEQUENCES = ("TUD-Campus", "TUD-Stadtmitte", "KITTI-17", "KITTI-13")
 METRICS = ("mota", "idf1", "hota")
 
@@ -245,7 +245,7 @@ def test_one_second_memory_loses_in_a_crowd() -> None:
     reason="known: TrackerConfig() is the ADAS default -- it reports coasting boxes for 0.2 s "
     "(false positives to MOTChallenge), keeps lost tracks 1 s (swaps in TUD-Stadtmitte's crowd) "
     "and its score thresholds assume [0, 1] (raw ACF scores are unbounded); MOT files go through "
-    "mot_tracker_config() and normalise_scores. If this passes, update tests/tools/test_mot_real.py",
+    "mot_tracker_config() and normalise_scores. If this passes, update tests/tools/scoring/test_mot_real.py",
 )
 @pytest.mark.parametrize("percentile", [None, SCORE_PERCENTILE], ids=["raw-scores", "normalised-scores"])
 def test_default_config_loses_to_sort(percentile: float | None) -> None:

@@ -18,7 +18,7 @@ from lookahead.sim.runner import Runner  # noqa: E402
 from lookahead.sim.scenario import load_scenario, with_detector  # noqa: E402
 from lookahead.tools.sinks.rerun import RerunSink  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 Collect = RecordCollector

@@ -29,7 +29,7 @@ from lookahead.tools.sinks.rundir import (
     timings_line,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 BOX = [100.0, 100.0, 140.0, 200.0]
 
 

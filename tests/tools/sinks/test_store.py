@@ -19,7 +19,7 @@ from lookahead.tools.reports.query import WHATS
 from lookahead.tools.sinks.rundir import RunDirWriter
 from lookahead.tools.sinks.store import APPLICATION_ID, SCHEMA_VERSION, SqliteStore, StoreError
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 PED = ROOT / "scenarios" / "ped_crossing_nearside.yaml"
 
 

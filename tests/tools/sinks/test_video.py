@@ -18,7 +18,7 @@ from lookahead.sim.scenario import load_scenario
 from lookahead.tools.sinks import video
 from lookahead.tools.sinks.video import VideoSink, find_cjk_font
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 Collect = RecordCollector
