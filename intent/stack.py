@@ -22,6 +22,8 @@ from lookahead.perception.camera import CameraModel
 from lookahead.perception.config import DEFAULT_MODEL, DetectorSpec, PerceptionSpec, SettingsError
 from lookahead.perception.detections import Detections
 from lookahead.perception.detectors.base import Detector, DetectorTruth
+from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
+from lookahead.perception.detectors.onnx_detector import OnnxDetector
 from lookahead.perception.estimator import Estimates, Estimator, EstimatorConfig
 from lookahead.perception.frame import Frame
 from lookahead.perception.preprocess import PreprocessChain
@@ -40,13 +42,9 @@ def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detect
     ``resolve_detector``); ``SettingsError`` for ``onnx`` without images (``render`` False)."""
     spec = resolve_detector(spec, render)
     if spec.kind == "onnx":
-        from lookahead.perception.detectors.onnx_detector import OnnxDetector
-
         if not render:
             raise SettingsError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
         return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows)
-    from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
-
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
 
 

@@ -36,6 +36,7 @@ from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
 from lookahead.sim.records import Sink, TickRecord
 from lookahead.sim.scenario import Scenario, ScenarioError
+from lookahead.sim.weather import Weather
 from lookahead.sim.world import World
 
 log = logging.getLogger(__name__)
@@ -155,7 +156,7 @@ class Runner:
         self.renderer = None
         self.weather = None  # sim.weather.Weather: applied to the rendered RGB (not clear)
         if render:
-            from lookahead.sim.renderer import Renderer
+            from lookahead.sim.renderer import Renderer  # lazy: PyBullet only when rendering
 
             self.renderer = Renderer(
                 self.camera, self.world.layout, seed=scenario.seed,
@@ -164,8 +165,6 @@ class Runner:
             for a in self.world.agents:
                 self.renderer.add_actor(a.identity.actor_id, a.identity.shape)
             if scenario.weather.kind != "clear":
-                from lookahead.sim.weather import Weather
-
                 self.weather = Weather.from_scenario(
                     scenario, self.camera, self.world.layout, far=self.renderer.far
                 )

@@ -14,6 +14,7 @@ from highway_env.road.road import Road
 from highway_env.vehicle.behavior import IDMVehicle
 
 from lookahead.sim.road import MAIN_FROM, MAIN_TO, build_road
+from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import Scenario, load_scenario
 from lookahead.sim.world import World
 
@@ -68,9 +69,6 @@ def bench_sim(scenario_path: Path, ticks: int = 400, frames: int = 30, block: in
         bare_ms.append((t1 - t0) * 1e3 / block)
         world_ms.append((t2 - t1) * 1e3 / block)
     cases = {"highway_env_step": case(bare_ms), "world_step": case(world_ms)}
-
-    from lookahead.sim.runner import Runner
-
     for w, h in ((640, 360), (960, 540)):
         sc = scenario.model_copy(deep=True)
         sc.camera.width, sc.camera.height = w, h

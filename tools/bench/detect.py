@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from lookahead.perception.config import DEFAULT_MODEL
+from lookahead.perception.detectors.onnx_detector import OnnxDetector
 from lookahead.perception.detectors.windows import DEFAULT_WINDOWS
 from lookahead.sim.catalogue import SCENARIOS
 from lookahead.sim.runner import Runner
@@ -51,8 +52,6 @@ def bench_detect(model: Path = DEFAULT_MODEL, scenario_path: Path | None = None,
                  repeats: int = 3, windows: Sequence[Sequence[float]] = DEFAULT_WINDOWS,
                  size: tuple[int, int] | None = None) -> dict:
     """The benchmark record (module docstring); ``size``: camera (width, height) px, default the scenario's."""
-    from lookahead.perception.detectors.onnx_detector import OnnxDetector
-
     images = render_frames(scenario_path or SCENARIOS / "urban_mix.yaml", frames, size)
     det = OnnxDetector(model, windows=windows)
     det.warmup(3)

@@ -16,13 +16,14 @@ from lookahead.sim.records import RecordCollector
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import load_scenario
 from lookahead.tools.bench.common import case, machine
+from lookahead.tools.sinks.rundir import RunDirWriter
+from lookahead.tools.sinks.store import SqliteStore
+from lookahead.tools.sinks.video import VideoSink
 
 
 def _all_sinks(scenario, out: Path) -> list:
+    # lazy: rerun-sdk loads when the benchmark runs, not when bench.all imports this module
     from lookahead.tools.sinks.rerun import RerunSink
-    from lookahead.tools.sinks.rundir import RunDirWriter
-    from lookahead.tools.sinks.store import SqliteStore
-    from lookahead.tools.sinks.video import VideoSink
 
     return [
         RunDirWriter(out, scenario),

@@ -25,6 +25,8 @@ import time
 from pathlib import Path
 
 from lookahead.sim.catalogue import SCENARIOS
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import load_scenario
 from lookahead.tools.bench.common import case, machine
 from lookahead.tools.runs.sweep import load_sweep, new_pool, run_sweep
 
@@ -34,9 +36,6 @@ WARM_SCENARIO = SCENARIOS / "stationary_car.yaml"
 def _warm_task(run_dir: str, hold_s: float) -> int:
     """Run a 1-s scenario in this worker (first-run caches), then hold so the next
     warm-up task lands on another worker; returns the worker's pid."""
-    from lookahead.sim.runner import Runner
-    from lookahead.sim.scenario import load_scenario
-
     t0 = time.perf_counter()
     sc = load_scenario(WARM_SCENARIO).model_copy(update={"duration": 1.0})
     Runner(sc, render=False).run()

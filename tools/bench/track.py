@@ -52,6 +52,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
 import numpy as np
@@ -60,13 +61,18 @@ from lookahead.perception.detections import Detections
 from lookahead.perception.mot import MotRecords, from_boxes, iter_frames, read_mot, to_detections
 from lookahead.perception.tracker import Tracker, TrackerConfig
 from lookahead.sim.catalogue import SCENARIOS
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import load_scenario
 from lookahead.tools.bench.common import case, machine
+from lookahead.tools.bench.sort_reference import Sort
+from lookahead.tools.scoring.io import GTFrame, TrackFrame
 from lookahead.tools.scoring.mot_eval import (
     evaluate_mot,
     mot_tracker_config,
     normalise_scores,
     read_seqinfo,
 )
+from lookahead.tools.scoring.tracking import frame_rows
 
 log = logging.getLogger(__name__)
 
@@ -120,8 +126,6 @@ def mot15_sequence(name: str, data_dir: Path = MOT15_DIR) -> TrackSequence:
 
 def sort_outputs(seq: TrackSequence) -> list[FrameOut]:
     """The SORT reference (``tools.bench.sort_reference.Sort()``, defaults) over the sequence, untimed."""
-    from lookahead.tools.bench.sort_reference import Sort
-
     sort = Sort()
     outs = []
     for dets in seq.dets:
@@ -147,8 +151,6 @@ class _Collector:
 
 
 def _gt_frame(gt):
-    from lookahead.tools.scoring.io import GTFrame
-
     return GTFrame(
         actor_id=gt.actor_id, class_id=gt.class_id, visible=gt.visible, visible_fraction=gt.visible_fraction,
         truncation=gt.truncation, range=gt.range, velocity=gt.velocity, ttc=gt.ttc,
@@ -156,8 +158,6 @@ def _gt_frame(gt):
 
 
 def _track_frame(out: FrameOut):
-    from lookahead.tools.scoring.io import TrackFrame
-
     ids, xyxy, cls = out
     k = len(ids)
     nan = np.full(k, np.nan)
@@ -170,10 +170,6 @@ def _track_frame(out: FrameOut):
 
 def sim_sequence(scenario_path: Path) -> TrackSequence:
     """A scenario run without rendering: its GT-noise detections, scored like ``lookahead score``."""
-    from lookahead.sim.runner import Runner
-    from lookahead.sim.scenario import load_scenario
-    from lookahead.tools.scoring.tracking import frame_rows
-
     scenario = load_scenario(scenario_path)
     sink = _Collector()
     Runner(scenario, sinks=[sink], render=False).run()
@@ -261,6 +257,7 @@ def run_deepsort(
         max_age: frames a missed track is kept; None = our ``Tracker.max_lost_frames``.
         embed_dim: length of the constant unit embedding.
     """
+    # lazy: deep-sort-realtime is optional (the 'dev' extra)
     from deep_sort_realtime.deepsort_tracker import DeepSort
 
     ours = Tracker(seq.config, frame_rate=seq.frame_rate)  # only for its frame budgets
@@ -387,8 +384,6 @@ def bench_track(
 
 
 def _deepsort_version() -> str | None:
-    from importlib.metadata import PackageNotFoundError, version
-
     try:
         return version("deep-sort-realtime")
     except PackageNotFoundError:

@@ -50,23 +50,34 @@ from __future__ import annotations
 import json
 import logging
 from collections.abc import Sequence
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
+from multiprocessing import get_context
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 import yaml
+from pydantic import ValidationError
 
 from lookahead.perception.detections import CLASSES
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.records import Sink, TickRecord
+from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import Scenario, load_scenario
+from lookahead.tools.dataset.scene_gen import (
+    CameraRandom,
+    GeneratorSpec,
+    SplitSpec,
+    generate_scenario,
+    is_generator,
+    load_generator,
+    overlapping_split,
+    split_seeds,
+)
+from lookahead.tools.runs.suite import is_suite, load_suite, read_yaml
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 from lookahead.tools.sinks.rundir import OutputError, prepare_dir
-
-if TYPE_CHECKING:
-    from lookahead.tools.dataset.scene_gen import GeneratorSpec
 
 log = logging.getLogger(__name__)
 
@@ -363,8 +374,6 @@ def _export_chunk(spec: GeneratorSpec, seeds: list[int], weather: str | None, fm
     Returns (sequence summaries, COCO images, COCO annotations) -- the COCO lists
     (empty for other formats) are merged and renumbered by the caller.
     """
-    from lookahead.tools.dataset.scene_gen import generate_scenario
-
     scenarios = [generate_scenario(spec, s, weather) for s in seeds]
     writer = make_writer(fmt, Path(out), every)
     seqs = _run_export(scenarios, writer, every, render=True)
@@ -375,8 +384,6 @@ def _export_chunk(spec: GeneratorSpec, seeds: list[int], weather: str | None, fm
 
 def _run_export(scenarios: Sequence[Scenario], writer: Writer, every: int, render: bool,
                 extra_sinks: Sequence[Sink] = ()) -> list[dict]:
-    from lookahead.sim.runner import Runner
-
     seqs = []
     for sc in scenarios:
         seq = _Seq(sc.name, sc.camera.width, sc.camera.height, float(sc.camera.rate))
@@ -404,11 +411,6 @@ def export_generated(
     Scenes run on a process pool of ``workers`` in chunks of ``chunk`` seeds; the
     result does not depend on ``workers`` (COCO ids follow seed order).
     """
-    from concurrent.futures import ProcessPoolExecutor
-    from multiprocessing import get_context
-
-    from lookahead.tools.dataset.scene_gen import generate_scenario, load_generator, split_seeds
-
     if every < 1:
         raise ValueError(f"--every: expected an integer >= 1, got {every}")
     spec = load_generator(gen_path)
@@ -469,8 +471,6 @@ def with_split_seeds(spec: GeneratorSpec, splits: Sequence[str], seeds: tuple[in
     """``spec`` with the seed range of the single split in ``splits`` set to ``seeds``
     [first, last); ValueError (naming the file) when that is not one split, or the range is
     empty or overlaps another split's."""
-    from lookahead.tools.dataset.scene_gen import SplitSpec, overlapping_split, split_seeds
-
     if len(splits) != 1:
         raise ValueError(f"--seeds: replaces the range of one split, give exactly one --split (got {len(splits)})")
     sp = splits[0]
@@ -489,10 +489,6 @@ def with_split_seeds(spec: GeneratorSpec, splits: Sequence[str], seeds: tuple[in
 def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
     """``spec`` with its camera resolution set to ``size`` (width, height) px, every other
     camera draw (field of view, mount) unchanged; ValueError when out of range."""
-    from pydantic import ValidationError
-
-    from lookahead.tools.dataset.scene_gen import CameraRandom
-
     w, h = size
     try:
         cam = CameraRandom.model_validate({**spec.camera.model_dump(), "width": w, "height": h})
@@ -504,8 +500,6 @@ def with_camera(spec: GeneratorSpec, size: tuple[int, int]) -> GeneratorSpec:
 
 def load_sources(source: Path) -> list[Scenario]:
     """The scenarios of a scenario YAML or of a suite YAML (a mapping with ``scenarios``)."""
-    from lookahead.tools.runs.suite import is_suite, load_suite, read_yaml
-
     if is_suite(read_yaml(source, "scenario or suite")):
         _, paths = load_suite(source)
         return [load_scenario(p) for p in paths]
@@ -531,9 +525,6 @@ def export_source(
     Returns ``export_generated``'s result (with ``splits``) for a generator file, else
     ``export_dataset``'s (with ``sequences``).
     """
-    from lookahead.tools.dataset.scene_gen import is_generator
-    from lookahead.tools.runs.suite import read_yaml
-
     if fmt not in FORMATS:
         raise ValueError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt!r}")
     if is_generator(read_yaml(source, "scenario, suite or generator")):

@@ -23,6 +23,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from lookahead.sim.scenario import SUBTYPES, Scenario, ScenarioError
+from lookahead.tools.runs.suite import read_yaml
 
 Range = tuple[float, float]
 
@@ -131,8 +132,6 @@ _MOTION = {
 
 def load_generator(path: str | Path) -> GeneratorSpec:
     """Read and validate a generator file; one-line ``ScenarioError`` naming file and field."""
-    from lookahead.tools.runs.suite import read_yaml
-
     data = read_yaml(path, "generator")
     if not isinstance(data, dict) or not isinstance(data.get("generator"), dict):
         raise ScenarioError(f"{path}: expected a mapping with a 'generator' section")

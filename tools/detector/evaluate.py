@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from lookahead.perception.detections import CLASSES
+from lookahead.perception.detectors.onnx_detector import OnnxDetector
 from lookahead.tools.detector.data import Split, load_split
 from lookahead.tools.scoring.detection import average_precision
 from lookahead.tools.scoring.matching import (
@@ -238,8 +239,6 @@ def evaluate_split(
 def onnx_detect(model: str | Path, preprocess=None, windows: Sequence[Sequence[float]] = ()):
     """A ``detect`` callable running ``OnnxDetector`` at ``AP_CONF`` (with an optional
     ``perception.preprocess`` chain in front, and zoom ``windows``)."""
-    from lookahead.perception.detectors.onnx_detector import OnnxDetector
-
     det = OnnxDetector(model, conf_threshold=AP_CONF, windows=windows)
 
     def detect(img: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

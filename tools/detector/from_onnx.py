@@ -11,6 +11,7 @@ per-channel mean ``mu`` and variance ``var``, the BatchNorm gets running statist
 ``(y - mu) + mu + b' = y + b'``; train mode normalises by the batch's own statistics,
 which on batches like the calibration ones are ``mu`` and ``var`` again. Fine-tuning
 then starts where the shipped model is, not from a network whose normalisation was lost.
+Needs torch (the ``train`` extra), like ``model`` and ``growth``.
 """
 
 from __future__ import annotations
@@ -19,7 +20,15 @@ import logging
 from collections.abc import Iterable
 from pathlib import Path
 
+import onnx
+import torch
+from onnx import numpy_helper
+from torch import nn
+
 from lookahead.perception.detectors.onnx_detector import ModelError
+from lookahead.tools.detector.arch import STAGES, ArchitectureError
+from lookahead.tools.detector.growth import architecture
+from lookahead.tools.detector.model import CenterDet
 
 log = logging.getLogger(__name__)
 
@@ -30,9 +39,6 @@ class ExportedModelError(ModelError):
 
 def _onnx_convs(path: Path) -> list[tuple]:
     """(weight, bias or None, stride) of every Conv node of the graph, in graph (execution) order."""
-    import onnx
-    from onnx import numpy_helper
-
     try:
         model = onnx.load(str(path))
     except Exception as e:  # protobuf decode errors, missing file
@@ -55,9 +61,6 @@ def _onnx_convs(path: Path) -> list[tuple]:
 
 def _convs_in_call_order(net) -> list:
     """The network's Conv2d modules in the order a forward pass calls them."""
-    import torch
-    from torch import nn
-
     order: list = []
     hooks = [m.register_forward_hook(lambda mod, _i, _o: order.append(mod))
              for m in net.modules() if isinstance(m, nn.Conv2d)]
@@ -81,11 +84,6 @@ def _exported_blocks(path: Path, convs: list[tuple]) -> tuple[int, ...]:
     its stages start (the stride-2 convolutions of strides 2..32, in execution order) and where the
     backbone ends (the neck's first 1 x 1 convolution), against a ``CenterDet`` with none added
     (each added block is two convolutions)."""
-    from torch import nn
-
-    from lookahead.tools.detector.arch import STAGES
-    from lookahead.tools.detector.model import CenterDet
-
     starts = [i for i, (_, _, stride) in enumerate(convs) if stride == 2]
     end = next((i for i, (w, _, _) in enumerate(convs) if starts and i > starts[-1] and w.shape[-1] == 1), None)
     if len(starts) != 5 or end is None:
@@ -107,10 +105,6 @@ def exported_architecture(path: str | Path) -> dict:
     file's convolutions, in execution order, are named after the modules a ``CenterDet``
     with those blocks calls in that order (the order does not depend on the widths).
     """
-    from lookahead.tools.detector.arch import ArchitectureError
-    from lookahead.tools.detector.growth import architecture
-    from lookahead.tools.detector.model import CenterDet
-
     path = Path(path)
     exported = _onnx_convs(path)
     ref = CenterDet(blocks=_exported_blocks(path, exported))
@@ -127,8 +121,6 @@ def exported_architecture(path: str | Path) -> dict:
 
 def _batchnorm_after(net) -> dict[int, object]:
     """id(conv) -> the BatchNorm2d that follows it in a ``model.conv`` block."""
-    from torch import nn
-
     out = {}
     for m in net.modules():
         if isinstance(m, nn.Sequential):
@@ -146,8 +138,6 @@ def load_exported(net, path: str | Path, batches: Iterable) -> None:
     to measure the convolution outputs' statistics (a few hundred crops are plenty).
     Raises ``ExportedModelError`` when the file's convolutions do not fit the network.
     """
-    import torch
-
     path = Path(path)
     exported = _onnx_convs(path)
     convs = _convs_in_call_order(net)
@@ -178,8 +168,6 @@ def load_exported(net, path: str | Path, batches: Iterable) -> None:
 
 def _calibrate(net, bns: dict[int, object], convs: list, batches: Iterable) -> None:
     """Give each BatchNorm its input's measured statistics, keeping the eval-mode function."""
-    import torch
-
     sums: dict[int, list] = {}
 
     def record(mod, inputs, _out):

@@ -19,9 +19,13 @@ import math
 from collections.abc import Sequence
 from pathlib import Path
 
+import torch
+
 from lookahead.perception.detections import CLASSES
 from lookahead.tools.detector.arch import ArchitectureError
 from lookahead.tools.detector.growth import architecture
+from lookahead.tools.detector.model import CenterDet
+from lookahead.tools.detector.train import export_onnx, model_metadata
 
 
 def soup_weights(n: int, weights: Sequence[float] | None) -> list[float]:
@@ -39,8 +43,6 @@ def soup_weights(n: int, weights: Sequence[float] | None) -> list[float]:
 
 def average_checkpoints(paths: Sequence[Path], weights: Sequence[float] | None = None) -> dict:
     """The weighted mean (``soup_weights``) of the state dicts saved at ``paths``."""
-    import torch
-
     if not paths:
         raise ValueError("no checkpoint to average")
     w = soup_weights(len(paths), weights)
@@ -69,11 +71,6 @@ def average_checkpoints(paths: Sequence[Path], weights: Sequence[float] | None =
 def soup(paths: Sequence[Path], out: Path, weights: Sequence[float] | None = None) -> Path:
     """Average the checkpoints at ``paths`` and export the network to ``out`` (ONNX; its
     checkpoint ``out`` with suffix ``.pt`` beside it). Returns ``out``."""
-    import torch
-
-    from lookahead.tools.detector.model import CenterDet
-    from lookahead.tools.detector.train import export_onnx, model_metadata
-
     w = soup_weights(len(paths), weights)
     state = average_checkpoints(paths, w)
     net = CenterDet(len(CLASSES), **architecture({k: tuple(v.shape) for k, v in state.items()}))

@@ -26,23 +26,29 @@ The exported ONNX (opset 17) takes ``images`` (1, 3, 384, 640) float RGB in [0, 
 and gives ``output0`` (1, 4 + 8, 15360) in the YOLOv8 layout (``model.Decoded``),
 with Ultralytics-style metadata (``names``, ``stride``, ``imgsz``) plus how it was
 trained (``lookahead`` version, data, epochs, seed).
+
+torch (the ``train`` extra) is imported inside the functions that use it, so this module
+imports without it (the CLI's error handling reads ``ResumeError``; ``TrainConfig``).
 """
 
 from __future__ import annotations
 
+import copy
 import json
 import logging
 import math
 import time
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import asdict, dataclass
+from importlib import metadata as md
 from pathlib import Path
 
 import numpy as np
 
 from lookahead.perception.detections import CLASSES
-from lookahead.tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
-from lookahead.tools.detector.data import SCALE_RANGE
+from lookahead.tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS, ArchitectureError
+from lookahead.tools.detector.data import SCALE_RANGE, TrainSampler, load_splits
 
 log = logging.getLogger(__name__)
 
@@ -78,6 +84,7 @@ class TrainConfig:
 
 def focal_loss(logits, heat, mask):
     """CenterNet's penalty-reduced focal loss (sum over cells / number of positives)."""
+    # lazy: torch is the optional extra 'train'
     import torch
     from torch.nn import functional as F
 
@@ -93,6 +100,7 @@ def focal_loss(logits, heat, mask):
 
 def box_iou_cxcywh(a, b):
     """IoU of boxes given as (..., 4) centre x, y and size w, h (same units)."""
+    # lazy: torch is the optional extra 'train'
     import torch
 
     lo = torch.maximum(a[..., :2] - a[..., 2:] / 2, b[..., :2] - b[..., 2:] / 2)
@@ -104,6 +112,7 @@ def box_iou_cxcywh(a, b):
 
 def reg_loss(reg, index, target, valid):
     """L1 of offset and log size + (1 - IoU) at the objects' regression cells (mean over entries)."""
+    # lazy: torch (and model, built on it) is the optional extra 'train'
     import torch
 
     from lookahead.tools.detector.model import cell_offset, cell_size
@@ -124,6 +133,7 @@ def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, 
     """Write the decoded graph (``model.Decoded``) as ONNX opset 17 with ``metadata``; its input
     height and width are dynamic (multiples of 32; ``input_hw`` is the traced size and the
     ``imgsz`` the detector fits a whole frame into), so zoom windows run at their own size."""
+    # lazy: torch (and model) is the optional extra 'train'; onnx (~0.7 s to import) only to export
     import onnx
     import torch
 
@@ -151,8 +161,6 @@ def export_onnx(net, path: Path, metadata: dict[str, str], input_hw: tuple[int, 
 def model_metadata(cfg: TrainConfig | None, data: str | None, extra: dict | None = None) -> dict[str, str]:
     """The exported model's metadata: what ``OnnxDetector`` reads (names, stride, imgsz), and how
     it was made (the training data and configuration, when trained; ``extra``)."""
-    from importlib import metadata as md
-
     names = {i: n for i, n in enumerate(CLASSES)}
     meta = {
         "names": str(names), "stride": "4", "imgsz": "[384, 640]", "task": "detect",
@@ -200,6 +208,7 @@ def _run_identity(cfg: TrainConfig, data: str | Path | Sequence[str | Path]) -> 
 
 
 def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[str | Path]) -> dict:
+    # lazy: torch is the optional extra 'train'
     import torch
 
     if not path.is_file():
@@ -215,6 +224,7 @@ def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[st
 
 
 def _save_state(path: Path, state: dict) -> None:
+    # lazy: torch is the optional extra 'train'
     import torch
 
     tmp = path.with_suffix(".tmp")
@@ -231,13 +241,14 @@ def init_checkpoint(out: str | Path) -> Path:
 
 def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
     """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower or shallower."""
+    # lazy: torch (and growth, model, built on it) is the optional extra 'train'
     import torch
 
-    from lookahead.tools.detector.arch import ArchitectureError
     from lookahead.tools.detector.growth import architecture, grow
     from lookahead.tools.detector.model import CenterDet
 
     if init.suffix == ".onnx":  # an exported model (BatchNorm folded): unfold it
+        # lazy: torch, and onnx only when starting from an exported model
         from lookahead.tools.detector.from_onnx import exported_architecture, load_exported
 
         src = CenterDet(len(CLASSES), **exported_architecture(init))
@@ -271,11 +282,10 @@ def train(data_dir: str | Path | Sequence[str | Path], out: Path, cfg: TrainConf
     configuration and data. Returns the training log: per-epoch losses and
     validation metrics, seconds.
     """
-    import copy
-
+    # lazy: torch (and model) is the optional extra 'train'
     import torch
 
-    from lookahead.tools.detector.data import TrainSampler, load_splits
+    # lazy: evaluate reads runs through tools.scoring, which loads the simulator (highway-env)
     from lookahead.tools.detector.evaluate import evaluate_model
     from lookahead.tools.detector.model import CenterDet
 
@@ -314,8 +324,6 @@ def train(data_dir: str | Path | Sequence[str | Path], out: Path, cfg: TrainConf
         step, first_epoch, elapsed, history = state["step"], state["epoch"], state["seconds"], state["history"]
         log.info("resuming %s after epoch %d of %d", state_path(out), first_epoch, cfg.epochs)
     t_start = time.perf_counter() - elapsed
-    from concurrent.futures import ThreadPoolExecutor
-
     prefetch = ThreadPoolExecutor(1)  # the next batch is cut (numpy/OpenCV, GIL released) during this step
     batches = [order_rng.permutation(n) for _ in range(cfg.epochs)]
     plan = [(e, p[b * cfg.batch:(b + 1) * cfg.batch]) for e, p in enumerate(batches) for b in range(steps_per_epoch)]

@@ -42,8 +42,10 @@ from collections import Counter, defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import cv2
 import numpy as np
 
+from lookahead.intent.labels import Label
 from lookahead.tools.reports.html import (
     REPORT_FILE,
     escape,
@@ -56,6 +58,12 @@ from lookahead.tools.reports.html import (
     row,
     table,
 )
+from lookahead.tools.reports.sweep import build_sweep_report, is_sweep_dir
+from lookahead.tools.scoring import estimation as est
+from lookahead.tools.scoring.io import load_run
+from lookahead.tools.scoring.matching import class_iou, hungarian_match
+from lookahead.tools.scoring.run import score_run
+from lookahead.tools.sinks.keyframes import KEY_FRAMES_INDEX, key_frame_reason
 from lookahead.tools.sinks.rundir import (
     METRICS_FILE,
     RUN_FILE,
@@ -115,9 +123,6 @@ def confusion_figure(confusion: dict) -> str | None:
 
 def range_error_figure(run: RunDir | Path) -> str | None:
     """Scatter of estimated − true range vs true range over matched (track, GT) pairs."""
-    from lookahead.tools.scoring import estimation as est
-    from lookahead.tools.scoring.io import load_run
-
     run = load_run(as_rundir(run))
     if run.tracks is None:
         return None
@@ -166,10 +171,6 @@ class _Timeline:
 
 
 def _timeline(rd: RunDir) -> _Timeline:
-    from lookahead.intent.labels import Label
-    from lookahead.tools.scoring.io import load_run
-    from lookahead.tools.scoring.matching import class_iou, hungarian_match
-
     run = load_run(rd)  # the frames the scorer built from the same RunDir
     tl = _Timeline()
     for f, rec in enumerate(rd.ticks):
@@ -348,8 +349,6 @@ def _expectations(exp: list[dict]) -> str:
 
 def _saved_key_frames(run_dir: Path, records: list[dict]) -> list[str]:
     """Figures of the PNGs in ``frames/`` (captions: file, t, and why from ``key_frames.json``)."""
-    from lookahead.tools.sinks.keyframes import KEY_FRAMES_INDEX
-
     paths = sorted((run_dir / "frames").glob("*.png"))[:MAX_KEY_FRAMES]
     if not paths:
         return []
@@ -372,10 +371,6 @@ def _saved_key_frames(run_dir: Path, records: list[dict]) -> list[str]:
 def video_key_frames(run_dir: Path, records: list[dict]) -> list[tuple[int, str, bytes]]:
     """(frame index, why, JPEG bytes) of the key frames of ``run_dir/annotated.mp4``, read
     with OpenCV; [] when there is no video or it cannot be read (logged)."""
-    import cv2
-
-    from lookahead.tools.sinks.keyframes import key_frame_reason
-
     path = run_dir / VIDEO_FILE
     if not path.is_file():
         return []
@@ -434,8 +429,6 @@ def _timing_table(timing: dict) -> str:
 
 
 def _ensure_metrics(rd: RunDir) -> dict:
-    from lookahead.tools.scoring.run import score_run
-
     if not rd.has(METRICS_FILE):
         log.info("%s: no metrics.json, scoring first", rd.path)
         return score_run(rd)
@@ -566,7 +559,5 @@ def build_report(path: Path) -> Path:
     if (path / TICKS_FILE).is_file():
         return build_run_report(path)
     if (path / SUMMARY_FILE).is_file():
-        from lookahead.tools.reports.sweep import build_sweep_report, is_sweep_dir
-
         return build_sweep_report(path) if is_sweep_dir(path) else build_suite_report(path)
     raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")

@@ -53,11 +53,18 @@ from pathlib import Path
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from lookahead.intent.config import deep_merge
 from lookahead.intent.stack import build_stack
 from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
+from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
 from lookahead.perception.frame import EgoOdometry, Frame
+from lookahead.sim.aeb import Aeb
+from lookahead.sim.runner import camera_from_scenario
 from lookahead.sim.scenario import Scenario
+from lookahead.tools.runs.suite import read_yaml
+from lookahead.tools.scoring.run import score_run
+from lookahead.tools.scoring.totals import RunFrames, suite_totals
 from lookahead.tools.sinks.rundir import (
     METRICS_FILE,
     SUMMARY_FILE,
@@ -100,8 +107,6 @@ class Perturber:
     """Applies a ``Perturbation`` frame by frame (state: the AR(1) noise per source object)."""
 
     def __init__(self, config: Perturbation, run_seed: int, width: int, height: int) -> None:
-        from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
-
         self.config, self.width, self.height = config, width, height
         self.rng = np.random.default_rng([config.seed, run_seed, 0x5EA1])
         self._noise: dict[int, np.ndarray] = {}  # source id -> last (4,) unit noise
@@ -194,9 +199,6 @@ def replay_run(
     "alerts": {...}}`` merged over the scenario's settings (experiments; the
     replay's ``run.json`` carries the resulting scenario).
     """
-    from lookahead.sim.aeb import Aeb
-    from lookahead.sim.runner import camera_from_scenario
-
     source, out_dir = RunDir(run_dir), Path(out_dir)
     run_dir = source.path
     source.file(TICKS_FILE)  # one-line error for a missing directory or ticks file
@@ -262,9 +264,6 @@ def replay_run(
     (out_dir / METRICS_FILE).unlink(missing_ok=True)
     result = {"name": scenario.name, "dir": str(out_dir), "summary": run.get("summary") or {}, "replay": replay}
     if score:
-        from lookahead.tools.scoring.run import score_run
-        from lookahead.tools.scoring.totals import RunFrames
-
         replayed = RunDir(out_dir)  # one parse of the replay: scoring, then suite totals' frames
         result["metrics"] = score_run(replayed)
         result["frames"] = RunFrames.of(replayed)
@@ -278,8 +277,6 @@ def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
                          "expected tracker, estimator, intent, alerts")
     if not overrides:
         return scenario
-    from lookahead.intent.config import deep_merge
-
     data = scenario.model_dump(mode="json")
     for key in ("tracker", "estimator"):
         if key in overrides:
@@ -301,8 +298,6 @@ def replay_suite(
 ) -> dict:
     """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like
     ``lookahead suite`` (totals: ``tools.scoring.totals.suite_totals``)."""
-    from lookahead.tools.scoring.totals import suite_totals
-
     suite_dir, out = Path(suite_dir), Path(out)
     src = read_summary(suite_dir)
     prepare_dir(out)
@@ -331,8 +326,6 @@ def replay_command(source: Path, out: Path, perturb: Perturbation, config: Path 
     """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides."""
     overrides = None
     if config is not None:
-        from lookahead.tools.runs.suite import read_yaml
-
         overrides = read_yaml(config, "replay config")
         if not isinstance(overrides, dict):
             raise ValueError(f"{config}: expected a mapping of tracker / estimator / intent / alerts overrides")

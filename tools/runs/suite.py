@@ -2,11 +2,21 @@
 
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
 from pathlib import Path
 
 import yaml
 
-from lookahead.sim.scenario import ScenarioError
+from lookahead.intent.stack import build_detector
+from lookahead.sim.runner import Runner
+from lookahead.sim.scenario import ScenarioError, load_scenario, with_detector
+from lookahead.tools.scoring.run import score_run
+from lookahead.tools.scoring.totals import RunFrames, suite_totals
+from lookahead.tools.sinks.keyframes import KeyFrameSink
+from lookahead.tools.sinks.rundir import RunDir, RunDirWriter, prepare_dir, write_summary
+from lookahead.tools.sinks.store import SqliteStore, open_db
+from lookahead.tools.sinks.video import VideoSink
 
 
 def read_yaml(path: str | Path, what: str = "suite") -> object:
@@ -51,29 +61,17 @@ def run_one(
     ``video`` (annotated.mp4), ``rerun`` (run.rrd). ``detector`` = (kind, model)
     overrides the scenario's detector (``sim.scenario.with_detector``).
     """
-    from lookahead.sim.runner import Runner
-    from lookahead.sim.scenario import load_scenario, with_detector
-    from lookahead.tools.scoring.run import score_run
-    from lookahead.tools.scoring.totals import RunFrames
-    from lookahead.tools.sinks.rundir import RunDir, RunDirWriter
-
     sc = with_detector(load_scenario(scenario_path), *detector)
     run_dir = Path(out_dir)
     sinks: list = [RunDirWriter(run_dir, sc, scenario_path)]
     if db is not None:
-        from lookahead.tools.sinks.store import SqliteStore
-
         sinks.append(SqliteStore(Path(db), sc, run_dir=run_dir, source=scenario_path))
     if "keyframes" in outputs:
-        from lookahead.tools.sinks.keyframes import KeyFrameSink
-
         sinks.append(KeyFrameSink(run_dir / "frames", int(sc.duration * sc.camera.rate)))
     if "video" in outputs:
-        from lookahead.tools.sinks.video import VideoSink
-
         sinks.append(VideoSink(run_dir / "annotated.mp4", fps=sc.camera.rate))
     if "rerun" in outputs:
-        from lookahead.tools.sinks.rerun import RerunSink
+        from lookahead.tools.sinks.rerun import RerunSink  # lazy: rerun-sdk only when asked for
 
         sinks.append(RerunSink(run_dir / "run.rrd"))
     try:
@@ -99,17 +97,7 @@ def run_suite(
     each, and write ``out/summary.json`` with per-run metrics and suite ``totals``
     (``tools.scoring.totals.suite_totals``, from the frames the workers scored).
     ``detector`` = (kind, model) overrides every scenario's detector."""
-    from concurrent.futures import ProcessPoolExecutor, as_completed
-    from multiprocessing import get_context
-
-    from lookahead.sim.scenario import load_scenario
-    from lookahead.tools.scoring.totals import suite_totals
-    from lookahead.tools.sinks.rundir import prepare_dir, write_summary
-
     name, paths = load_suite(suite_path)
-    from lookahead.intent.stack import build_detector
-    from lookahead.sim.scenario import with_detector
-
     checked: set[str] = set()
     for p in paths:  # validate everything (and load each detector once) before running anything
         sc = with_detector(load_scenario(p), *detector)
@@ -119,8 +107,6 @@ def run_suite(
             checked.add(key)
     prepare_dir(out)
     if db is not None:  # fail before running anything; creates the schema once
-        from lookahead.tools.sinks.store import open_db
-
         open_db(db).close()
     outputs = outputs or {}
     det = (detector[0], None if detector[1] is None else str(detector[1]))

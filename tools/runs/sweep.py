@@ -58,13 +58,17 @@ import types
 import typing
 import zlib
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
+from multiprocessing import get_context
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 import yaml
 from pydantic import BaseModel, Discriminator, Field, Tag, ValidationError, model_validator
 
+from lookahead.sim.actors import DEFAULT_ACCEL
 from lookahead.sim.scenario import (
     Scenario,
     ScenarioError,
@@ -74,14 +78,18 @@ from lookahead.sim.scenario import (
     parse_yaml_model,
     read_text_file,
 )
+from lookahead.tools.reports.sweep import build_sweep_report
+from lookahead.tools.runs.suite import run_one
 from lookahead.tools.scoring.totals import metric_at, sweep_totals
 from lookahead.tools.sinks.rundir import (
     METRICS_FILE,
     RunDir,
     as_rundir,
     config_hash,
+    prepare_dir,
     write_summary,
 )
+from lookahead.tools.sinks.store import open_db
 
 log = logging.getLogger(__name__)
 
@@ -322,8 +330,6 @@ def place_impact_offset(actor: dict, ego: dict, offset: float) -> None:
       ``ego_range_lt`` or ``t``. Kinematic approximation: the actor's footprint is ignored
       (error ~ its half-length, about 0.3 m for a pedestrian).
     """
-    from lookahead.sim.actors import DEFAULT_ACCEL
-
     aid = actor.get("id")
     heading = math.radians(float(actor.get("heading", 0.0)))
     start = actor.setdefault("start", {})
@@ -451,8 +457,6 @@ def variant_id(params: dict[str, Any]) -> str:
 
 
 def _draw(path: str, dist: Distribution, n: int, seed: int) -> list[Any]:
-    import numpy as np
-
     rng = np.random.default_rng([seed, zlib.crc32(path.encode())])
     if isinstance(dist, Uniform):
         return [round(float(x), 6) for x in rng.uniform(*dist.uniform, size=n)]
@@ -557,6 +561,7 @@ def one_line(exc: BaseException) -> str:
 
 def warm_worker() -> None:
     """Pool initializer: import the loop and the scorer before the first variant arrives."""
+    # lazy on purpose: importing these in each worker, before its first variant, is this function's job
     import lookahead.sim.runner  # noqa: F401
     import lookahead.tools.runs.suite  # noqa: F401
     import lookahead.tools.scoring.intent  # noqa: F401
@@ -566,8 +571,6 @@ def warm_worker() -> None:
 
 def run_variant(vid: str, scenario_path: str, run_dir: str, render: bool = False, db: str | None = None) -> dict:
     """Run and score one variant (a worker's job); never raises: failures come back as data."""
-    from lookahead.tools.runs.suite import run_one
-
     t0, c0 = time.perf_counter(), time.process_time()
     result: dict[str, Any] = {"id": vid, "ok": True}
     try:
@@ -596,8 +599,6 @@ def is_complete(run_dir: Path | RunDir, scenario: Scenario) -> bool:
 
 def forget_runs(db: Path, run_dirs: list[Path]) -> int:
     """Delete the store's rows of runs written into ``run_dirs`` (stale or killed runs)."""
-    from lookahead.tools.sinks.store import open_db
-
     if not run_dirs:
         return 0
     conn = open_db(db)
@@ -621,8 +622,6 @@ def forget_runs(db: Path, run_dirs: list[Path]) -> int:
 
 
 def _run_pool(pool, jobs: list[dict], on_result: Callable[[dict], None]) -> None:
-    from concurrent.futures import as_completed
-
     futures = {pool.submit(run_variant, **job): job["vid"] for job in jobs}
     for f in as_completed(futures):
         try:
@@ -634,15 +633,12 @@ def _run_pool(pool, jobs: list[dict], on_result: Callable[[dict], None]) -> None
 
 def new_pool(workers: int):
     """A ``spawn`` process pool whose workers import the loop up front."""
-    from concurrent.futures import ProcessPoolExecutor
-    from multiprocessing import get_context
-
     return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=warm_worker)
 
 
 def import_ray():
     try:
-        import ray
+        import ray  # lazy: ray is the optional extra 'distributed'
     except ImportError:
         raise SweepError("--ray needs the 'distributed' extra: pip install 'lookahead[distributed]'") from None
     return ray
@@ -711,9 +707,6 @@ def run_sweep(
     process when ``workers`` <= 1). ``progress(result)`` is called once per variant run.
     ``variants`` overrides the sweep file's (a subset, e.g. in benchmarks).
     """
-    from lookahead.tools.sinks.rundir import prepare_dir
-    from lookahead.tools.sinks.store import open_db
-
     sweep_path = Path(sweep_path)
     spec, base_path, expanded = load_sweep(sweep_path)
     variants = expanded if variants is None else variants
@@ -758,8 +751,6 @@ def run_sweep(
     summary.update(backend=backend, workers=workers, elapsed_s=round(elapsed, 3))
     write_summary(out, summary)
     if report:
-        from lookahead.tools.reports.sweep import build_sweep_report
-
         build_sweep_report(out)
     return summary
 

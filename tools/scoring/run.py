@@ -28,6 +28,7 @@ from pathlib import Path
 
 from lookahead.tools.scoring.detection import evaluate_detection
 from lookahead.tools.scoring.estimation import evaluate_estimation
+from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 from lookahead.tools.scoring.io import RunData, load_run
 from lookahead.tools.scoring.timing import load_timings, timing_section
 from lookahead.tools.scoring.tracking import evaluate_tracking
@@ -59,8 +60,6 @@ def compute_sections(run: RunDir | Path) -> dict[str, dict]:
     ``ticks.jsonl`` is parsed once (``RunDir``): the frame arrays and the intent
     fields are read from the same records.
     """
-    from lookahead.tools.scoring.intent import intent_sections, load_intent_run
-
     rd = as_rundir(run)
     sections = evaluate(load_run(rd))
     sections.update(intent_sections(load_intent_run(rd)))

@@ -47,6 +47,7 @@ from lookahead.intent.labels import BEHAVIOUR_NAMES, LABEL_NAMES, Risk
 from lookahead.perception.detections import CLASSES
 from lookahead.sim.records import TickRecord, jsonable
 from lookahead.sim.scenario import Scenario
+from lookahead.tools.sinks.rundir import config_hash, versions
 
 log = logging.getLogger(__name__)
 
@@ -292,8 +293,6 @@ class SqliteStore:
 
     # --- sink protocol -------------------------------------------------------------------
     def on_start(self, info: dict) -> None:
-        from lookahead.tools.sinks.rundir import config_hash, versions
-
         sc = self.scenario
         row = (
             sc.name, json.dumps(jsonable(sc.model_dump(mode="json")), sort_keys=True), self.source,
