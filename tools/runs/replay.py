@@ -60,6 +60,7 @@ from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
 from lookahead.perception.frame import EgoOdometry, Frame
 from lookahead.sim.aeb import Aeb
+from lookahead.sim.records import jsonable
 from lookahead.sim.runner import camera_from_scenario
 from lookahead.sim.scenario import Scenario
 from lookahead.tools.runs.suite import read_yaml
@@ -243,7 +244,7 @@ def replay_run(
                 aeb.decide(t, crit, nearest, frame.odometry.speed)
             line = {**rec, "detections": dets.to_dict(), "tracks": {**tracks.to_dict(), **est.to_dict()},
                     "assessments": assessment.to_dict(), "alerts": [a.to_dict() for a in alerts]}
-            fout.write(tick_line(line))
+            fout.write(tick_line(jsonable(line)))
             ftim.write(timings_line({k: timings[k] for k in REPLAY_STAGES if k in timings}))
             frames += 1
     replay = {

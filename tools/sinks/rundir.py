@@ -118,8 +118,9 @@ def prepare_dir(path: Path) -> Path:
 
 
 def tick_line(record: dict) -> str:
-    """One ``ticks.jsonl`` line (NaN -> null, +-inf -> +-NEVER, compact)."""
-    return json.dumps(jsonable(record), separators=(",", ":")) + "\n"
+    """One ``ticks.jsonl`` line, compact, of a JSON-ready record (``sim.records.jsonable``:
+    NaN -> null, +-inf -> +-NEVER; ``TickRecord.to_dict()`` already is)."""
+    return json.dumps(record, separators=(",", ":")) + "\n"
 
 
 def timings_line(timings: dict[str, float]) -> str:
