@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 import yaml
 
+from lookahead.sim.records import jsonable
 from lookahead.tools.sinks import rundir
 from lookahead.tools.sinks.rundir import (
     NEVER,
@@ -60,7 +61,7 @@ def test_decode_null_and_never():
 
 def test_written_values_read_back():
     """What the writer encodes (NaN -> null, inf -> NEVER) the reader decodes back."""
-    line = tick_line({"t": 0.1, "ttc": [math.inf, -math.inf, math.nan, 2.0], "n": np.int64(3)})
+    line = tick_line(jsonable({"t": 0.1, "ttc": [math.inf, -math.inf, math.nan, 2.0], "n": np.int64(3)}))
     assert line.endswith("\n") and json.loads(line) == {"t": 0.1, "ttc": [NEVER, -NEVER, None, 2.0], "n": 3}
     back = decode_array(json.loads(line)["ttc"])
     assert back[0] == math.inf and back[1] == -math.inf and np.isnan(back[2]) and back[3] == 2.0
