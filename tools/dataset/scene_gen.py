@@ -20,19 +20,15 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import Field, ValidationError, field_validator, model_validator
 
-from lookahead.sim.scenario import SUBTYPES, Scenario, ScenarioError
+from lookahead.sim.scenario import SUBTYPES, Scenario, ScenarioError, Strict
 from lookahead.tools.runs.suite import read_yaml
 
 Range = tuple[float, float]
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class SplitSpec(_Strict):
+class SplitSpec(Strict):
     seeds: tuple[int, int] = Field(description="scene seeds [first, last) of this split")
 
     @field_validator("seeds")
@@ -43,7 +39,7 @@ class SplitSpec(_Strict):
         return v
 
 
-class CameraRandom(_Strict):
+class CameraRandom(Strict):
     width: int = Field(640, ge=64, le=4096)
     height: int = Field(360, ge=48, le=4096)
     fov_h: Range = (85.0, 95.0)
@@ -53,7 +49,7 @@ class CameraRandom(_Strict):
     rate: float = Field(2.0, gt=0.0, le=20.0, description="frames per second exported")
 
 
-class WeatherRandom(_Strict):
+class WeatherRandom(Strict):
     """Weights of the weather kinds and the ranges of their parameters."""
 
     clear: float = Field(0.4, ge=0.0)
@@ -70,7 +66,7 @@ class WeatherRandom(_Strict):
         return self
 
 
-class ActorRandom(_Strict):
+class ActorRandom(Strict):
     count: tuple[int, int] = Field((3, 10), description="actors per scene [min, max]")
     x: Range = Field((3.0, 90.0), description="ego-relative start x (m)")
     #: relative weights of the actor classes drawn (obstacles are distractors, not labelled)
@@ -83,7 +79,7 @@ class ActorRandom(_Strict):
     parked_cars: tuple[int, int] = Field((0, 3), description="stationary cars at the kerb")
 
 
-class GeneratorSpec(_Strict):
+class GeneratorSpec(Strict):
     """What ``generate_scenario`` draws from; see the module docstring."""
 
     name: str = Field("det", min_length=1, description="scene name prefix")
