@@ -18,13 +18,19 @@ from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from lookahead.sim.catalogue import SCENARIOS, catalogue_names, resolve_path
-
 app = typer.Typer(add_completion=False, no_args_is_help=True, help="lookahead: forward-camera perception testbench")
 bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks; each writes a JSON file.")
 app.add_typer(bench_app, name="bench")
 console = Console(stderr=True)
 SCENARIO_HELP = "scenario YAML, or a packaged scenario's name (ped_crossing_nearside)"
+
+
+def catalogue_path(text: str | Path) -> Path:
+    """A scenario, suite or sweep argument: the file given, else the packaged one of that name
+    (``sim.catalogue.resolve_path``; imported on use so that ``--help`` loads no simulator)."""
+    from lookahead.sim.catalogue import resolve_path
+
+    return resolve_path(text)
 
 
 SCORE_ROWS = (  # lookahead score: (section, metric, format)
@@ -238,7 +244,7 @@ def run_scenario(
 @app.command()
 @user_errors
 def run(
-    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=resolve_path)],
+    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=catalogue_path)],
     out: Annotated[Path, typer.Option("--out", help="run directory to write")],
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = True,
     renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
@@ -268,7 +274,7 @@ def run(
 @app.command()
 @user_errors
 def suite(
-    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML, or a packaged suite's name (smoke)", parser=resolve_path)],
+    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML, or a packaged suite's name (smoke)", parser=catalogue_path)],
     out: Annotated[Path, typer.Option("--out", help="suite directory to write")],
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
@@ -291,7 +297,7 @@ def suite(
 @app.command()
 @user_errors
 def regress(
-    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML, or a packaged suite's name (smoke)", parser=resolve_path)],
+    suite_file: Annotated[Path, typer.Argument(metavar="SUITE", help="suite YAML, or a packaged suite's name (smoke)", parser=catalogue_path)],
     baseline: Annotated[Path, typer.Option("--baseline", help="baseline JSON")],
     update_baseline: Annotated[bool, typer.Option("--update-baseline", help="write the current totals as the baseline")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="keep the suite directory here")] = None,
@@ -358,7 +364,7 @@ def print_suite(summary: dict) -> None:
 @app.command()
 @user_errors
 def render(
-    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=resolve_path)],
+    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=catalogue_path)],
     out: Annotated[Path, typer.Option("--out", help="directory for PNG frames")],
     every: Annotated[int, typer.Option(help="keep every k-th camera frame")] = 1,
     amodal: Annotated[bool, typer.Option(help="draw amodal (projected 3D) boxes instead of visible ones")] = False,
@@ -393,6 +399,8 @@ def render(
 @app.command()
 def catalogue() -> None:
     """The packaged scenarios, suites, sweeps and generators, by the names run / suite / sweep accept."""
+    from lookahead.sim.catalogue import catalogue_names
+
     for name in catalogue_names():
         typer.echo(name)
 
@@ -412,7 +420,7 @@ def schema(out: Annotated[Path | None, typer.Option(help="write here instead of 
 
 @app.command()
 @user_errors
-def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML files (or packaged names)", parser=resolve_path)]) -> None:
+def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML files (or packaged names)", parser=catalogue_path)]) -> None:
     """Validate scenario files; one line per file."""
     from rich.markup import escape
 
@@ -433,7 +441,7 @@ def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML
 @app.command()
 @user_errors
 def sweep(
-    sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP", help="sweep YAML, or a packaged sweep's name (aeb_stationary_car)", parser=resolve_path)],
+    sweep_file: Annotated[Path, typer.Argument(metavar="SWEEP", help="sweep YAML, or a packaged sweep's name (aeb_stationary_car)", parser=catalogue_path)],
     out: Annotated[Path, typer.Option("--out", help="sweep directory to write (re-run to resume)")],
     workers: Annotated[int, typer.Option(min=1, help="worker processes (with --ray local: CPUs)")] = 1,
     ray_address: Annotated[str | None, typer.Option(
@@ -478,7 +486,7 @@ def sweep(
 @user_errors
 def bench_sim(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=resolve_path)] = SCENARIOS / "highway_traffic.yaml",
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=catalogue_path)] = Path("highway_traffic"),
     ticks: Annotated[int, typer.Option(help="ticks per case")] = 400,
     frames: Annotated[int, typer.Option(help="rendered frames per resolution")] = 30,
 ) -> None:
@@ -586,7 +594,7 @@ def report(
 
 @app.command("export-dataset")
 def export_dataset(
-    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE|GENERATOR", parser=resolve_path,
+    source: Annotated[Path, typer.Argument(metavar="SCENARIO|SUITE|GENERATOR", parser=catalogue_path,
                                            help="scenario, suite or scene-generator YAML (or a packaged name)")],
     out: Annotated[Path, typer.Option("--out", help="dataset directory to write")],
     format: Annotated[str, typer.Option("--format", help="yolo | coco | mot | study")] = "yolo",
@@ -845,7 +853,7 @@ def bench_all(
 def bench_detect(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     model: Annotated[Path | None, typer.Option(help="ONNX model (default: the shipped one)")] = None,
-    scenario: Annotated[Path, typer.Option(help="scenario whose frames are detected", parser=resolve_path)] = SCENARIOS / "urban_mix.yaml",
+    scenario: Annotated[Path, typer.Option(help="scenario whose frames are detected", parser=catalogue_path)] = Path("urban_mix"),
     frames: Annotated[int, typer.Option(min=1, help="rendered frames")] = 30,
     repeats: Annotated[int, typer.Option(min=1, help="passes over the frames")] = 3,
     camera: Annotated[str | None, typer.Option(
@@ -869,7 +877,7 @@ def bench_detect(
 @user_errors
 def bench_sinks(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario to run", parser=resolve_path)] = SCENARIOS / "ped_crossing_nearside.yaml",
+    scenario: Annotated[Path, typer.Option(help="scenario to run", parser=catalogue_path)] = Path("ped_crossing_nearside"),
     repeats: Annotated[int, typer.Option(help="runs per configuration")] = 3,
 ) -> None:
     """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
@@ -897,7 +905,7 @@ def bench_track(
 @user_errors
 def bench_env(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=resolve_path)] = SCENARIOS / "highway_traffic.yaml",
+    scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=catalogue_path)] = Path("highway_traffic"),
     steps: Annotated[int, typer.Option(help="timed env steps")] = 600,
 ) -> None:
     """ForwardTracks-v0 steps vs bare highway-env with the same traffic; real-time factor."""
@@ -911,8 +919,7 @@ def bench_env(
 @user_errors
 def bench_sweep(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)", parser=resolve_path)] = (
-        SCENARIOS / "sweeps" / "aeb_stationary_car.yaml"),
+    sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)", parser=catalogue_path)] = Path("sweeps/aeb_stationary_car"),
     variants: Annotated[int | None, typer.Option(help="use only the first N variants")] = None,
     repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
 ) -> None:
