@@ -441,6 +441,26 @@ def with_detector(scenario: Scenario, kind: str | None, model: str | Path | None
     return scenario.model_copy(update={"perception": perception})
 
 
+AEB_SWITCH: tuple[str, ...] = ("on", "off")
+
+
+def with_aeb(scenario: Scenario, aeb: str | None) -> Scenario:
+    """``scenario`` with its ego's AEB switched (the CLI's ``--aeb on|off``).
+
+    ``on``: the scenario's AEB settings if it has them (``ego.aeb`` true or a mapping), else the
+    defaults (``ego.aeb: true``); ``off``: no AEB (``ego.aeb: false``); ``None`` returns ``scenario``
+    unchanged.
+    """
+    if aeb is None:
+        return scenario
+    if aeb not in AEB_SWITCH:
+        raise ScenarioError(f"--aeb: expected on or off, got {aeb!r}")
+    value: bool | AebConfig = (scenario.ego.aeb or True) if aeb == "on" else False
+    if value is scenario.ego.aeb:
+        return scenario
+    return scenario.model_copy(update={"ego": scenario.ego.model_copy(update={"aeb": value})})
+
+
 class ScenarioError(SettingsError):
     """A scenario that cannot be used; ``str()`` is one line naming file, field and problem."""
 

@@ -117,6 +117,22 @@ def yaml_option(name: str, text: str):
         fail(f"{name}: malformed YAML: {problem}{where}")
 
 
+AEB_HELP = ("override every scenario's ego.aeb: on (the scenario's AEB settings if it has them, else the "
+            "defaults) | off (no AEB); default: as the scenarios say")
+
+
+def aeb_option(text: str) -> str:
+    """The ``--aeb`` option's value, on | off; another is one line, exit 2 (at parse time, before any work)."""
+    value = text.strip().lower()
+    if value not in ("on", "off"):
+        fail(f"--aeb {text!r}: expected on or off")
+    return value
+
+
+def aeb_param():  # the --aeb option of run / suite / regress / sweep
+    return typer.Option("--aeb", metavar="on|off", help=AEB_HELP, parser=aeb_option)
+
+
 WINDOWS_HELP = ("zoom windows, YAML list of [x0, y0, x1, y1] fractions of the image with an optional zoom "
                 "(input px per image px), as a scenario's perception.detector.windows; default: the scenarios' "
                 "default; '[]': the whole frame only")
@@ -204,18 +220,19 @@ def _progress() -> Progress:
 def run_scenario(
     scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
     video: Path | None = None, rerun_file: Path | None = None, lang: str = "en", rerun_live: bool = False,
-    detector: str | None = None, model: Path | None = None,
+    detector: str | None = None, model: Path | None = None, aeb: str | None = None,
 ) -> dict:
-    """Run one scenario into ``out``; returns the run summary.
+    """Run one scenario into ``out``; returns the run summary. ``detector`` / ``model`` / ``aeb``
+    override the scenario's (``sim.scenario.with_detector``, ``with_aeb``).
 
     The runner (renderer, detector model) is built before any sink, so a bad model
     or renderer fails before an output file is touched.
     """
     from lookahead.sim.runner import Runner
-    from lookahead.sim.scenario import load_scenario, with_detector
+    from lookahead.sim.scenario import load_scenario, with_aeb, with_detector
     from lookahead.tools.sinks.rundir import RunDirWriter
 
-    scenario = with_detector(load_scenario(scenario_path), detector, model)
+    scenario = with_aeb(with_detector(load_scenario(scenario_path), detector, model), aeb)
     runner = Runner(scenario, render=render, renderer_backend=renderer)
     try:
         sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
@@ -256,6 +273,7 @@ def run(
     rerun_live: Annotated[bool, typer.Option("--rerun-live", help="stream to a live rerun viewer (spawned)")] = False,
     detector: Annotated[str | None, typer.Option(help="override the scenario's detector: gt | onnx | auto")] = None,
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
+    aeb: Annotated[str | None, aeb_param()] = None,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
@@ -263,7 +281,8 @@ def run(
     if lang not in ("en", "zh"):
         raise typer.BadParameter("--lang must be en or zh")
     summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
-                           rerun_file=rerun_file, lang=lang, rerun_live=rerun_live, detector=detector, model=model)
+                           rerun_file=rerun_file, lang=lang, rerun_live=rerun_live, detector=detector, model=model,
+                           aeb=aeb)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
@@ -281,6 +300,7 @@ def suite(
     db: Annotated[Path | None, typer.Option("--db", help="one SQLite store for every run of the suite")] = None,
     detector: Annotated[str | None, typer.Option(help="override every scenario's detector: gt | onnx | auto")] = None,
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
+    aeb: Annotated[str | None, aeb_param()] = None,
 ) -> None:
     """Run and score every scenario of a suite; writes summary.json."""
     from lookahead.tools.runs.suite import load_suite, run_suite
@@ -290,7 +310,7 @@ def suite(
         task = prog.add_task(suite_file.stem, total=len(paths))
         summary = run_suite(suite_file, out, workers=workers, render=render, db=db,
                             progress=lambda name: prog.update(task, advance=1, description=name),
-                            detector=(detector, None if model is None else str(model)))
+                            detector=(detector, None if model is None else str(model)), aeb=aeb)
     print_suite(summary)
 
 
@@ -305,6 +325,7 @@ def regress(
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
     detector: Annotated[str | None, typer.Option(help="override every scenario's detector: gt | onnx | auto")] = None,
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
+    aeb: Annotated[str | None, aeb_param()] = None,
 ) -> None:
     """Run a suite and compare its totals with a baseline; exit 1 on a regression."""
     import tempfile
@@ -321,7 +342,7 @@ def regress(
     base = None if update_baseline else load_baseline(baseline)  # fail before running anything
     with tempfile.TemporaryDirectory(prefix="lookahead-regress-") as tmp:
         summary = run_suite(suite_file, out or Path(tmp), workers=workers, render=render,
-                            detector=(detector, None if model is None else str(model)))
+                            detector=(detector, None if model is None else str(model)), aeb=aeb)
     current = flatten(summary["totals"])
     if update_baseline:
         write_baseline(baseline, summary["suite"], current)
@@ -451,6 +472,7 @@ def sweep(
     db: Annotated[Path | None, typer.Option("--db", help="SQLite store (default OUT/sweep.sqlite)")] = None,
     report: Annotated[bool, typer.Option("--report/--no-report", help="write OUT/report.html")] = True,
     dry_run: Annotated[bool, typer.Option("--dry-run", help="list the variants, run nothing")] = False,
+    aeb: Annotated[str | None, aeb_param()] = None,
 ) -> None:
     """Run a scenario sweep (grid / random samples) on a process pool or Ray; resumable.
 
@@ -459,7 +481,7 @@ def sweep(
     """
     from lookahead.tools.runs.sweep import is_complete, load_sweep, run_sweep
 
-    _, _, variants = load_sweep(sweep_file)
+    _, _, variants = load_sweep(sweep_file, aeb=aeb)
     todo = [v for v in variants if not is_complete(out.resolve() / "runs" / v.id, v.scenario)]
     if dry_run:
         for v in variants:
@@ -470,7 +492,8 @@ def sweep(
     with _progress() as prog:
         task = prog.add_task(f"{sweep_file.stem}: {len(todo)} of {len(variants)} variants", total=len(todo))
         summary = run_sweep(sweep_file, out, workers=workers, ray_address=ray_address, render=render, db=db,
-                            report=report, progress=lambda r: prog.update(task, advance=1, description=r["id"]))
+                            report=report, progress=lambda r: prog.update(task, advance=1, description=r["id"]),
+                            aeb=aeb)
     c = summary["counts"]
     for vid, err in summary["failed"].items():
         console.print(f"[red]failed[/] {vid}: {err}", highlight=False)

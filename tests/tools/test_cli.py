@@ -188,3 +188,18 @@ def test_packaged_scenarios_by_name(tmp_path, monkeypatch):
     assert json.loads((tmp_path / "r" / "run.json").read_text())["scenario"]["name"] == "stationary_car"
     res = runner.invoke(app, ["run", "no_such_scenario", "--out", "r2", "--no-render"])
     assert res.exit_code == 2 and "no_such_scenario" in res.stderr and "Traceback" not in res.output
+
+
+@pytest.mark.parametrize("command", [
+    ["run", "stationary_car", "--no-render"],
+    ["suite", "smoke"],
+    ["regress", "smoke", "--baseline", "b.json"],
+    ["sweep", "aeb_stationary_car"],
+])
+def test_a_bad_aeb_switch_is_one_line_and_exit_2(tmp_path, command):
+    out = tmp_path / "out"
+    res = runner.invoke(app, [*command, "--aeb", "maybe", "--out", str(out)])
+    assert res.exit_code == 2, res.output
+    text = res.output.strip()
+    assert len(text.splitlines()) == 1 and "--aeb 'maybe': expected on or off" in text, text
+    assert not out.exists()  # refused before anything ran

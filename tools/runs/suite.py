@@ -10,7 +10,7 @@ import yaml
 
 from lookahead.intent.stack import build_detector
 from lookahead.sim.runner import Runner
-from lookahead.sim.scenario import ScenarioError, load_scenario, with_detector
+from lookahead.sim.scenario import ScenarioError, load_scenario, with_aeb, with_detector
 from lookahead.tools.scoring.run import score_run
 from lookahead.tools.scoring.totals import RunFrames, suite_totals
 from lookahead.tools.sinks.keyframes import KeyFrameSink
@@ -49,7 +49,7 @@ def load_suite(path: str | Path) -> tuple[str, list[Path]]:
 
 def run_one(
     scenario_path: str, out_dir: str, render: bool, db: str | None = None, outputs: tuple[str, ...] = (),
-    detector: tuple[str | None, str | None] = (None, None),
+    detector: tuple[str | None, str | None] = (None, None), aeb: str | None = None,
 ) -> dict:
     """Run and score one scenario into ``out_dir`` (a worker's job).
 
@@ -59,9 +59,10 @@ def run_one(
 
     ``outputs`` may name extra sinks: ``keyframes`` (annotated PNGs in frames/),
     ``video`` (annotated.mp4), ``rerun`` (run.rrd). ``detector`` = (kind, model)
-    overrides the scenario's detector (``sim.scenario.with_detector``).
+    overrides the scenario's detector (``sim.scenario.with_detector``), ``aeb`` (on | off)
+    its ego's AEB (``sim.scenario.with_aeb``).
     """
-    sc = with_detector(load_scenario(scenario_path), *detector)
+    sc = with_aeb(with_detector(load_scenario(scenario_path), *detector), aeb)
     run_dir = Path(out_dir)
     sinks: list = [RunDirWriter(run_dir, sc, scenario_path)]
     if db is not None:
@@ -91,16 +92,17 @@ def run_one(
 def run_suite(
     suite_path: str | Path, out: Path, workers: int = 1, render: bool = False, progress=None,
     db: Path | None = None, outputs: dict[str, tuple[str, ...]] | None = None,
-    detector: tuple[str | None, str | None] = (None, None),
+    detector: tuple[str | None, str | None] = (None, None), aeb: str | None = None,
 ) -> dict:
     """Run every scenario of a suite (on a process pool when ``workers`` > 1), score
     each, and write ``out/summary.json`` with per-run metrics and suite ``totals``
     (``tools.scoring.totals.suite_totals``, from the frames the workers scored).
-    ``detector`` = (kind, model) overrides every scenario's detector."""
+    ``detector`` = (kind, model) overrides every scenario's detector, ``aeb`` (on | off) every
+    scenario's ``ego.aeb``; both are recorded in the summary (None: as the scenarios say)."""
     name, paths = load_suite(suite_path)
     checked: set[str] = set()
     for p in paths:  # validate everything (and load each detector once) before running anything
-        sc = with_detector(load_scenario(p), *detector)
+        sc = with_aeb(with_detector(load_scenario(p), *detector), aeb)
         key = sc.perception.detector.model_dump_json()
         if key not in checked:
             build_detector(sc.perception.detector, sc.seed, render)
@@ -110,7 +112,7 @@ def run_suite(
         open_db(db).close()
     outputs = outputs or {}
     det = (detector[0], None if detector[1] is None else str(detector[1]))
-    jobs = [(str(p), str(out / p.stem), render, None if db is None else str(db), outputs.get(p.stem, ()), det)
+    jobs = [(str(p), str(out / p.stem), render, None if db is None else str(db), outputs.get(p.stem, ()), det, aeb)
             for p in paths]
     results: dict[str, dict] = {}
     if workers <= 1:
@@ -133,6 +135,7 @@ def run_suite(
         "suite": name,
         "render": render,
         "detector": {"kind": detector[0], "model": det[1]},
+        "aeb": aeb,
         "runs": {r["name"]: {"dir": Path(r["dir"]).name, "summary": r["summary"], "metrics": r["metrics"]} for r in ordered},
         "totals": totals,
     }

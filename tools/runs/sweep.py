@@ -59,7 +59,7 @@ import typing
 import zlib
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
 from typing import Annotated, Any
@@ -77,6 +77,7 @@ from lookahead.sim.scenario import (
     load_scenario,
     parse_yaml_model,
     read_text_file,
+    with_aeb,
 )
 from lookahead.tools.reports.sweep import build_sweep_report
 from lookahead.tools.runs.suite import run_one
@@ -539,15 +540,26 @@ def parse_sweep(text: str, path: str) -> SweepSpec:
     return parse_yaml_model(text, path, SweepSpec, "sweep", SweepError)
 
 
-def load_sweep(path: str | Path) -> tuple[SweepSpec, Path, list[Variant]]:
-    """(spec, base scenario path, variants) of a sweep file; one-line ``SweepError`` when wrong."""
+def aeb_variants(variants: list[Variant], aeb: str | None) -> list[Variant]:
+    """``variants`` with every scenario's ``ego.aeb`` switched (``sim.scenario.with_aeb``; None: as they are).
+
+    The switch is part of each variant's scenario (its ``scenario.yaml`` and config hash), so a sweep
+    resumed with another ``--aeb`` re-runs the variants whose scenario it changes instead of mixing them."""
+    if aeb is None:
+        return variants
+    return [replace(v, scenario=with_aeb(v.scenario, aeb)) for v in variants]
+
+
+def load_sweep(path: str | Path, aeb: str | None = None) -> tuple[SweepSpec, Path, list[Variant]]:
+    """(spec, base scenario path, variants) of a sweep file; one-line ``SweepError`` when wrong.
+    ``aeb`` (on | off) switches every variant's AEB (``aeb_variants``)."""
     p = Path(path)
     spec = parse_sweep(read_text_file(p, "sweep", SweepError), str(p))
     base_path = (p.parent / spec.scenario).resolve()
     if not base_path.is_file():
         raise SweepError(f"{p}: scenario: no such scenario file {base_path}")
     base = load_scenario(base_path)
-    return spec, base_path, expand(spec, base, str(p))
+    return spec, base_path, aeb_variants(expand(spec, base, str(p)), aeb)
 
 
 # --------------------------------------------------------------------------- running
@@ -698,18 +710,19 @@ def _write_variant(v: Variant, run_dir: Path) -> Path:
 def run_sweep(
     sweep_path: str | Path, out: Path, workers: int = 1, ray_address: str | None = None, render: bool = False,
     db: Path | None = None, progress: Callable[[dict], None] | None = None, executor=None, report: bool = True,
-    variants: list[Variant] | None = None,
+    variants: list[Variant] | None = None, aeb: str | None = None,
 ) -> dict:
     """Run the missing variants of a sweep and write ``summary.json`` (and the report).
 
     ``executor``: an existing ``concurrent.futures`` pool to use (benchmarks keep one warm);
     else ``ray_address`` (Ray), else a ``spawn`` pool of ``workers`` processes (in this
     process when ``workers`` <= 1). ``progress(result)`` is called once per variant run.
-    ``variants`` overrides the sweep file's (a subset, e.g. in benchmarks).
+    ``variants`` overrides the sweep file's (a subset, e.g. in benchmarks). ``aeb`` (on | off)
+    switches every variant's AEB (``aeb_variants``); recorded in the summary (None: as written).
     """
     sweep_path = Path(sweep_path)
-    spec, base_path, expanded = load_sweep(sweep_path)
-    variants = expanded if variants is None else variants
+    spec, base_path, expanded = load_sweep(sweep_path)  # aeb: applied below, to these or the given variants
+    variants = aeb_variants(expanded if variants is None else variants, aeb)
     out = prepare_dir(Path(out).resolve())
     runs = out / RUNS_DIR
     db = (Path(db) if db is not None else out / DB_FILE).resolve()
@@ -747,7 +760,7 @@ def run_sweep(
         with new_pool(workers) as pool:
             _run_pool(pool, jobs, on_result)
     elapsed = time.perf_counter() - t0
-    summary = gather(out, spec, sweep_path, base_path, variants, results, render=render, db=db)
+    summary = gather(out, spec, sweep_path, base_path, variants, results, render=render, db=db, aeb=aeb)
     summary.update(backend=backend, workers=workers, elapsed_s=round(elapsed, 3))
     write_summary(out, summary)
     if report:
@@ -757,7 +770,7 @@ def run_sweep(
 
 def gather(
     out: Path, spec: SweepSpec, sweep_path: Path, base_path: Path, variants: list[Variant],
-    results: dict[str, dict], render: bool, db: Path,
+    results: dict[str, dict], render: bool, db: Path, aeb: str | None = None,
 ) -> dict:
     """``summary.json`` content from the run directories on disk (done now or earlier)."""
     entries: dict[str, dict] = {}
@@ -796,6 +809,7 @@ def gather(
         "set": spec.set,
         "report": spec.report.model_dump(),
         "render": render,
+        "aeb": aeb,
         "db": rel(db),
         "counts": {"variants": len(variants), "done": len(done), "failed": len(failed),
                    "ran": len(results), "skipped": len(variants) - len(results)},

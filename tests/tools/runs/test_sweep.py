@@ -245,3 +245,26 @@ def test_bench_env_and_bench_sweep_json(tmp_path):
     assert set(result["cases"]) == {f"{k}_{n}" for k in ("sweep", "variant", "variant_cpu")
                                     for n in ("1_worker", "2_workers")}
     assert len(result["worker_pids"]["2"]) == 2
+
+
+def test_a_sweep_resumed_with_another_aeb_switch_reruns_instead_of_mixing(tmp_path):
+    sw = short_sweep(tmp_path, "  ego.speed: [8]\n  ego.aeb: [false, true]\n", duration=1.0)
+    out = tmp_path / "out"
+    first = run_sweep(sw, out, workers=1, report=False)
+    assert first["aeb"] is None and first["counts"]["ran"] == 2
+    # --aeb on: the variant without AEB changes (new config hash) and runs again; the other is the same scenario
+    on = run_sweep(sw, out, workers=1, report=False, aeb="on")
+    assert on["aeb"] == "on" and on["counts"] == {"variants": 2, "done": 2, "failed": 0, "ran": 1, "skipped": 1}
+    for v in on["variants"].values():
+        run = json.loads((out / v["dir"] / "run.json").read_text())
+        assert run["scenario"]["ego"]["aeb"] is True
+    _, _, variants = load_sweep(sw, aeb="on")
+    assert all(is_complete(out / "runs" / v.id, v.scenario) for v in variants)
+    # --aeb off: both variants now ran with AEB, so both are to run again
+    assert not any(is_complete(out / "runs" / v.id, v.scenario) for v in load_sweep(sw, aeb="off")[2])
+    res = cli.invoke(app, ["sweep", str(sw), "--out", str(out), "--aeb", "off", "--dry-run"])
+    assert res.exit_code == 0 and res.output.count("todo") == 2 and "2 to run" in res.output, res.output
+    off = run_sweep(sw, out, workers=1, report=False, aeb="off")
+    assert off["aeb"] == "off" and off["counts"]["ran"] == 2 and off["counts"]["done"] == 2
+    assert {json.loads((out / v["dir"] / "run.json").read_text())["scenario"]["ego"]["aeb"]
+            for v in off["variants"].values()} == {False}
