@@ -299,10 +299,11 @@ def _section_tables(name: str, sec: dict) -> str:
         cols = list(dict.fromkeys(k for v in per_class.values() if isinstance(v, dict) for k in v))
         rows = [[c, *[(v or {}).get(k) for k in cols]] for c, v in per_class.items()]
         out.append(table(["class", *cols], rows))
-    events = sec.get("event_list")
-    if isinstance(events, list) and events:
-        cols = list(dict.fromkeys(k for e in events for k in e))
-        out.append(table(cols, [[e.get(k) for k in cols] for e in events]))
+    for key in ("event_list", "onset_list"):  # danger events, AEB brake onsets
+        events = sec.get(key)
+        if isinstance(events, list) and events:
+            cols = list(dict.fromkeys(k for e in events for k in e))
+            out.append(table(cols, [[e.get(k) for k in cols] for e in events]))
     out.append("</div>")
     return "".join(out)
 
@@ -310,7 +311,7 @@ def _section_tables(name: str, sec: dict) -> str:
 def _cards(metrics: dict) -> str:
     d, t, e = metrics.get("detection", {}), metrics.get("tracking", {}), metrics.get("estimation", {})
     i, dg, cl = metrics.get("intent", {}), metrics.get("danger", {}), metrics.get("closed_loop", {})
-    exp = metrics.get("expectations") or []
+    exp, aeb = metrics.get("expectations") or [], metrics.get("aeb") or {}
     items = [
         ("detection recall", d.get("recall")), ("detection precision", d.get("precision")),
         ("MOTA", t.get("mota")), ("IDF1", t.get("idf1")),
@@ -319,6 +320,8 @@ def _cards(metrics: dict) -> str:
         ("danger events missed", f"{dg.get('missed', '—')} / {dg.get('events', '—')}"),
         ("false alarms / alerts", f"{dg.get('false_alarms', '—')} / {dg.get('alerts', '—')}"),
         ("warning lead time (median s)", dg.get("lead_time_s_median")),
+        ("false AEB activations / brake onsets",
+         f"{aeb.get('false_activations', '—')} / {aeb.get('brake_onsets', '—')}"),
         *_outcome_cards(cl, exp),
     ]
     cards = "".join(f'<div class="card"><div class="v">{escape(fmt(v))}</div><div class="k">{escape(k)}</div></div>'
@@ -449,7 +452,7 @@ def build_run_report(run: RunDir | Path) -> Path:
     sub = (f"seed {run.get('seed', '—')} · {summ.get('frames', len(records))} frames · "
            f"t end {fmt(summ.get('t_end'))} s · renderer {run.get('renderer') or 'none'} · "
            f"config {run.get('config_hash', '—')}")
-    order = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "timing")
+    order = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "aeb", "timing")
     sections = [k for k in order if isinstance(metrics.get(k), dict) and k != "timing"]
     sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order]
     body = [
@@ -482,6 +485,7 @@ _SUITE_COLS = (
     ("intent acc", "intent", "accuracy"), ("macro F1", "intent", "macro_f1"),
     ("danger events", "danger", "events"), ("missed", "danger", "missed"),
     ("false alarms", "danger", "false_alarms"), ("lead time s", "danger", "lead_time_s_median"),
+    ("AEB onsets", "aeb", "brake_onsets"), ("false AEB", "aeb", "false_activations"),
 )
 
 

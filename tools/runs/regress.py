@@ -3,6 +3,11 @@
 A metric *regresses* when it moves in its bad direction by more than its
 tolerance; the gate prints a Markdown table of every metric that moved and
 exits 1 on any regression. ``--update-baseline`` writes the current values.
+
+A metric the baseline file does not name (a file written before the metric existed)
+is compared with ``ASSUMED_BASELINE``'s value when it has one, and is otherwise listed
+without a verdict: ``aeb.false_activations`` is assumed 0, so a baseline that predates
+AEB scoring still fails on the first false AEB activation.
 """
 
 from __future__ import annotations
@@ -28,7 +33,11 @@ TOLERANCES: dict[str, tuple[str, float]] = {
     "danger.lead_time_s_median": ("up", 0.2),
     "closed_loop.collisions": ("down", 0),
     "expectations.failed": ("down", 0),
+    "aeb.false_activations": ("down", 0),
 }
+
+#: metric path -> the value a baseline that lacks the metric is taken to have.
+ASSUMED_BASELINE: dict[str, float] = {"aeb.false_activations": 0}
 
 
 def flatten(totals: dict) -> dict[str, float | None]:
@@ -42,11 +51,14 @@ def flatten(totals: dict) -> dict[str, float | None]:
 
 def compare(current: dict[str, float | None], baseline: dict[str, float | None],
             tolerances: dict[str, tuple[str, float]] | None = None) -> list[dict]:
-    """One row per metric: baseline, current, delta, and whether it regressed."""
+    """One row per metric: baseline, current, delta, and whether it regressed (a metric
+    absent from ``baseline`` takes its ``ASSUMED_BASELINE`` value, row ``assumed``)."""
     tol = {**TOLERANCES, **(tolerances or {})}
     rows = []
     for path, (direction, limit) in tol.items():
-        base, cur = baseline.get(path), current.get(path)
+        assumed = path not in baseline and path in ASSUMED_BASELINE
+        base = ASSUMED_BASELINE[path] if assumed else baseline.get(path)
+        cur = current.get(path)
         if base is None and cur is None:
             continue
         if base is None or cur is None:
@@ -56,7 +68,8 @@ def compare(current: dict[str, float | None], baseline: dict[str, float | None],
         delta = cur - base
         worse = -delta if direction == "up" else delta
         rows.append({"metric": path, "baseline": base, "current": cur, "delta": delta,
-                     "regressed": worse > limit + 1e-12, "tolerance": limit, "direction": direction})
+                     "regressed": worse > limit + 1e-12, "tolerance": limit, "direction": direction,
+                     **({"assumed": True} if assumed else {})})
     return rows
 
 
@@ -71,7 +84,8 @@ def markdown(rows: list[dict], only_moved: bool = True) -> str:
         verdict = "**REGRESSED**" if r["regressed"] else "ok"
         sign = "" if r["delta"] is None else ("+" if r["delta"] >= 0 else "")
         better = "higher is better" if r["direction"] == "up" else "lower is better"
-        lines.append(f"| {r['metric']} | {f(r['baseline'])} | {f(r['current'])} | {sign}{f(r['delta'])} "
+        base = f(r["baseline"]) + (" (assumed)" if r.get("assumed") else "")
+        lines.append(f"| {r['metric']} | {base} | {f(r['current'])} | {sign}{f(r['delta'])} "
                      f"| {f(r['tolerance'])} ({better}) | {verdict} |")
     if len(lines) == 2:
         lines.append("| (nothing moved) | | | | | |")

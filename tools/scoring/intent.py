@@ -1,4 +1,4 @@
-"""The ``intent``, ``danger``, ``closed_loop`` and ``expectations`` sections of metrics.json.
+"""The ``intent``, ``danger``, ``closed_loop``, ``aeb`` and ``expectations`` sections of metrics.json.
 
 Definitions (documented constants):
 
@@ -24,6 +24,15 @@ Definitions (documented constants):
 * A track's object: the ground-truth actor it is matched with most often.
 * ``ttc_when_first_visible``: the object's true TTC at the first frame it was
   visible (``NEVER`` = 1e9 when not closing): a warning cannot come earlier than that.
+* AEB brake onset (``aeb`` section): a frame whose ``ego.brake`` is non-null after a
+  frame where it was null (or the first frame, braking). It is *justified* when some
+  ground-truth actor, at a frame from ``AEB_BEFORE_S`` = 0.5 s before the onset to
+  ``AEB_AFTER_S`` = 0.3 s after it, is labelled ``danger`` (in path, TTC or closing
+  range under its class's HIGH thresholds) or is in path with a true TTC below
+  ``AEB_TTC_BOUND_S`` (the largest default CRITICAL TTC, the AEB's trigger, 2.0 s, plus
+  0.5 s). The window is the label tolerance (0.3 s) either side of the decision, which
+  came the AEB's default latency (0.2 s) before the brake. Any other onset is a
+  *false activation*; ``false_activation_rate`` = false / onsets (None without onsets).
 """
 
 from __future__ import annotations
@@ -35,6 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
+from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import LABEL_NAMES, Label, Risk
 from lookahead.tools.scoring.matching import IOU_THRESHOLD, class_iou, hungarian_match
 from lookahead.tools.sinks.rundir import NEVER, RUN_FILE, RunDir, RunDirError, as_rundir, decode
@@ -44,6 +54,9 @@ EPISODE_GAP_FRAMES = 2
 ALERT_LEAD_WINDOW_S = 1.0
 FA_BEFORE_S = 0.5
 FA_AFTER_S = 1.0
+AEB_BEFORE_S = 0.5  # the AEB's default latency (0.2 s) + LABEL_TOLERANCE_S
+AEB_AFTER_S = LABEL_TOLERANCE_S
+AEB_TTC_BOUND_S = max(r.critical_ttc for r in IntentConfig().risk.values()) + 0.5
 SCORED_LABELS = (Label.STABLE, Label.APPROACHING, Label.RECEDING, Label.DANGER)
 _RISK = {r.name: int(r) for r in Risk}
 
@@ -63,6 +76,8 @@ class IntentRun:
     collisions: list[dict] = field(default_factory=list)
     expect: list[dict] = field(default_factory=list)
     aeb_frames: int = 0
+    gt_in_path: dict[int, set[int]] = field(default_factory=lambda: defaultdict(set))  # actor -> frames in path
+    braking: list[bool] = field(default_factory=list)  # per frame: ego.brake non-null
 
 
 def load_intent_run(run: RunDir | Path) -> IntentRun:
@@ -96,6 +111,7 @@ def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
             out.gt_visible[a].add(f)
         if gt["in_path"][i]:
             out.gt_inpath_ttc.append(out.gt_ttc[a][f])
+            out.gt_in_path[a].add(f)
     tr, asm = rec.get("tracks"), rec.get("assessments")
     if tr and asm and len(tr.get("track_id", [])):
         state = np.array([s in ("confirmed", "lost", 1, 2) for s in tr["state"]])  # reported tracks
@@ -111,7 +127,9 @@ def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
                 out.pairs.append((f, int(gids[g]), int(tids[t]), int(labels[t])))
     out.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
     out.collisions += rec.get("collisions") or []
-    if rec.get("ego", {}).get("brake"):
+    brake = (rec.get("ego") or {}).get("brake")
+    out.braking.append(brake is not None)
+    if brake:
         out.aeb_frames += 1
 
 
@@ -240,6 +258,41 @@ def evaluate_closed_loop(run: IntentRun) -> dict:
     }
 
 
+def brake_onsets(run: IntentRun) -> list[int]:
+    """Frames at which the AEB brake comes on (non-null after null, or braking at the first frame)."""
+    return [f for f, b in enumerate(run.braking) if b and (f == 0 or not run.braking[f - 1])]
+
+
+def evaluate_aeb(run: IntentRun) -> dict:
+    """Brake onsets, and which of them no ground-truth danger justified (false activations)."""
+    t = np.asarray(run.t)
+    onsets = []
+    for f0 in brake_onsets(run):
+        lo, hi = t[f0] - AEB_BEFORE_S - 1e-6, t[f0] + AEB_AFTER_S + 1e-6
+        window = [f for f in range(len(t)) if lo <= t[f] <= hi]
+        best = None  # (ttc, frames from the onset, actor, frame)
+        for actor, labels in run.gt_label.items():
+            for f in window:
+                ttc = run.gt_ttc[actor].get(f, math.inf)
+                danger = labels.get(f) == Label.DANGER
+                if danger or (f in run.gt_in_path[actor] and ttc < AEB_TTC_BOUND_S):
+                    key = (ttc, abs(f - f0), actor, f)
+                    best = key if best is None or key < best else best
+        item = {"t": rounded(t[f0]), "justified": best is not None, "actor": None, "ttc": None, "label": None}
+        if best is not None:
+            ttc, _, actor, f = best
+            item.update(actor=run.names.get(actor, str(actor)), ttc=rounded(min(ttc, NEVER)),
+                        label=LABEL_NAMES[Label(run.gt_label[actor][f])])
+        onsets.append(item)
+    n, false = len(onsets), sum(1 for o in onsets if not o["justified"])
+    return {
+        "brake_onsets": n,
+        "false_activations": false,
+        "false_activation_rate": rounded(false / n) if n else None,
+        "onset_list": onsets,
+    }
+
+
 def evaluate_expectations(run: IntentRun, metrics: dict) -> list[dict]:
     """Each scenario ``expect:`` item as passed / failed with a reason."""
     out = []
@@ -290,7 +343,8 @@ def evaluate_expectations(run: IntentRun, metrics: dict) -> list[dict]:
 
 
 def intent_sections(run: IntentRun) -> dict:
-    sections = {"intent": evaluate_intent(run), "danger": evaluate_danger(run), "closed_loop": evaluate_closed_loop(run)}
+    sections = {"intent": evaluate_intent(run), "danger": evaluate_danger(run), "closed_loop": evaluate_closed_loop(run),
+                "aeb": evaluate_aeb(run)}
     sections["expectations"] = evaluate_expectations(run, sections)
     return sections
 

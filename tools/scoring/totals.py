@@ -4,8 +4,8 @@
   (``lookahead replay SUITE_DIR``): ``score_suite`` re-scores detection, tracking,
   estimation and timing over all runs' frames together (ids kept apart), so counts
   are sums and rates, AP, IDF1 and medians are recomputed over every frame;
-  ``intent_totals`` pools intent, danger, closed loop and expectations from the
-  runs' metrics.
+  ``intent_totals`` pools intent, danger, closed loop, aeb (false AEB activations)
+  and expectations from the runs' metrics.
 * ``sweep_totals`` -- a sweep's (``lookahead sweep``), from the variants' metrics
   alone (O(variants), no run re-read): detection and tracking counts summed with
   precision, recall and MOTA recomputed, estimation sample counts, ``intent_totals``
@@ -67,8 +67,9 @@ def suite_totals(runs: Sequence[RunFrames | RunDir | Path], per_run: Sequence[di
 
 
 def intent_totals(per_run: Sequence[dict]) -> dict:
-    """Totals of the intent, danger and closed-loop sections: counts summed,
-    rates and medians recomputed (confusion matrices added, lead times pooled)."""
+    """Totals of the intent, danger, closed-loop and aeb sections: counts summed,
+    rates and medians recomputed (confusion matrices added, lead times pooled; ``aeb.runs``
+    counts the runs that had an ``aeb`` section, older metrics files lack it)."""
     runs = [m for m in per_run if m.get("intent")]
     labels = [LABEL_NAMES[Label(k)] for k in SCORED_LABELS]
     conf = np.zeros((len(labels), len(labels)), dtype=np.int64)
@@ -91,6 +92,9 @@ def intent_totals(per_run: Sequence[dict]) -> dict:
     alerts = sum(m["danger"]["alerts"] for m in runs)
     fa = sum(m["danger"]["false_alarms"] for m in runs)
     hits = [m["closed_loop"] for m in runs]
+    aeb = [m["aeb"] for m in runs if isinstance(m.get("aeb"), dict)]
+    onsets = sum(int(a.get("brake_onsets") or 0) for a in aeb)
+    false_act = sum(int(a.get("false_activations") or 0) for a in aeb)
     return {
         "intent": {
             "accuracy": rounded(np.trace(conf) / total) if total else None,
@@ -111,6 +115,10 @@ def intent_totals(per_run: Sequence[dict]) -> dict:
             "runs": len(hits),
             "collisions": sum(1 for h in hits if h["collision"]),
             "impact_speed_max": rounded(max([h["impact_speed"] or 0.0 for h in hits], default=0.0)),
+        },
+        "aeb": {
+            "runs": len(aeb), "brake_onsets": onsets, "false_activations": false_act,
+            "false_activation_rate": rounded(false_act / onsets) if onsets else None,
         },
         "expectations": {
             "total": sum(len(m.get("expectations", [])) for m in runs),
@@ -136,7 +144,7 @@ def _ratio(num: float, den: float) -> float | None:
 def sweep_totals(per_run: Sequence[dict], mean_of: Sequence[str] = ()) -> dict:
     """Totals pooled from per-run ``metrics.json`` contents alone (O(runs), nothing re-read).
 
-    ``intent``, ``danger``, ``closed_loop``, ``expectations``: ``intent_totals`` (exact, as
+    ``intent``, ``danger``, ``closed_loop``, ``aeb``, ``expectations``: ``intent_totals`` (exact, as
     a suite's). ``detection``: gt / tp / fp summed, precision and recall recomputed;
     ``tracking``: tp / fp / fn / id_switches / fragmentations / mostly_* summed, MOTA
     recomputed; ``estimation``: the sample counts. Metrics that do not pool from per-run

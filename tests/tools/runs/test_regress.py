@@ -31,6 +31,28 @@ def test_a_metric_that_disappears_is_a_regression():
     assert row["regressed"]
 
 
+def test_a_new_false_aeb_activation_fails_the_gate():
+    (row,) = [r for r in compare({"aeb.false_activations": 1}, {"aeb.false_activations": 0})
+              if r["metric"] == "aeb.false_activations"]
+    assert row["regressed"] and row["delta"] == 1 and row["tolerance"] == 0
+    assert "| aeb.false_activations | 0 | 1 | +1 |" in markdown([row])
+    (row,) = [r for r in compare({"aeb.false_activations": 0}, {"aeb.false_activations": 1})
+              if r["metric"] == "aeb.false_activations"]
+    assert not row["regressed"]  # one fewer is an improvement
+
+
+def test_a_baseline_without_the_false_activation_count_is_taken_as_zero():
+    rows = {r["metric"]: r for r in compare({"aeb.false_activations": 0}, {"tracking.mota": 0.9})}
+    assert rows["aeb.false_activations"]["assumed"] and not rows["aeb.false_activations"]["regressed"]
+    assert "aeb.false_activations" not in markdown(list(rows.values()))  # nothing moved
+    (row,) = [r for r in compare({"aeb.false_activations": 1}, {}) if r["metric"] == "aeb.false_activations"]
+    assert row["regressed"] and "| aeb.false_activations | 0 (assumed) | 1 |" in markdown([row])
+    # a baseline that names the metric is used as is, even when it recorded false activations
+    (row,) = [r for r in compare({"aeb.false_activations": 2}, {"aeb.false_activations": 2})
+              if r["metric"] == "aeb.false_activations"]
+    assert not row["regressed"] and "assumed" not in row
+
+
 def degraded_suite(tmp: Path, miss_rate: float) -> Path:
     suite = yaml.safe_load(SMOKE.read_text())
     paths = []

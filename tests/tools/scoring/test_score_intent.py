@@ -65,5 +65,6 @@ def test_hand_computed_intent_danger_and_expectations(tmp_path):
     assert d["lead_time_s_median"] == pytest.approx(2.8)
 
     assert s["closed_loop"]["collision"] is False and s["closed_loop"]["min_ttc"] == pytest.approx(2.2)
+    assert s["aeb"] == {"brake_onsets": 0, "false_activations": 0, "false_activation_rate": None, "onset_list": []}
     assert [e["passed"] for e in s["expectations"]] == [True, False, True]
     assert "true TTC 2.80 s" in s["expectations"][0]["detail"]
