@@ -3,9 +3,10 @@
 The world steps at the scenario ``rate``; every ``frame_every = rate / camera.rate`` ticks
 the camera renders a ``Frame``, ground truth is computed, the perception + intent stack
 (``intent.stack``, built by ``build_stack`` from the scenario's settings) runs, the AEB
-decides, and a ``TickRecord`` goes to every sink. ``Runner.step`` advances one camera
-frame (the gym env steps with it); ``Runner.run`` loops over it to the end. Sinks are
-injected (observers) so ``sim`` never imports ``tools``. Each stage is timed (ms).
+and the driver (``sim.driver``, if the scenario has one) decide, and a ``TickRecord`` goes
+to every sink. ``Runner.step`` advances one camera frame (the gym env steps with it);
+``Runner.run`` loops over it to the end. Sinks are injected (observers) so ``sim`` never
+imports ``tools``. Each stage is timed (ms).
 A setting the stack refuses (``SettingsError``, e.g. ``onnx`` without rendering) is the
 scenario's: the runner raises it as ``ScenarioError``.
 """
@@ -32,6 +33,7 @@ from lookahead.perception.estimator import Estimates
 from lookahead.perception.frame import Frame
 from lookahead.perception.tracker import Tracks
 from lookahead.sim.aeb import Aeb
+from lookahead.sim.driver import Driver, combine_brakes, fcw_in_path
 from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
 from lookahead.sim.records import Sink, TickRecord
@@ -169,6 +171,8 @@ class Runner:
                     scenario, self.camera, self.world.layout, far=self.renderer.far
                 )
         self.aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
+        self.driver = Driver(scenario.ego.driver) if scenario.ego.driver is not None else None
+        self.driver_brake: float | None = None  # the driver's brake command (m/s^2) of the last tick
         self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))  # world ticks per frame
         self.n_ticks = int(round(scenario.duration * scenario.rate))  # world ticks of the whole run
         self.frame_index = 0  # index of the next camera frame
@@ -241,9 +245,10 @@ class Runner:
     def step(self, accel: float | None = None) -> StepResult:
         """Advance to the next camera frame and ``observe`` it.
 
-        World ticks, each the AEB's brake command then ``World.step``, until a frame tick
-        (``tick % frame_every == 0``) or a collision that ends the run (``end_on_collision``),
-        which are observed, or the run's last tick (``n_ticks``) between frames, which is not.
+        World ticks, each the brake command (the AEB's or the driver's, the stronger) then
+        ``World.step``, until a frame tick (``tick % frame_every == 0``) or a collision that ends
+        the run (``end_on_collision``), which are observed, or the run's last tick (``n_ticks``)
+        between frames, which is not.
 
         Args:
             accel: the ego's longitudinal acceleration (m/s^2) for these ticks, replacing its
@@ -256,8 +261,10 @@ class Runner:
         sim_ms, ticks = 0.0, 0
         while w.tick < self.n_ticks:
             t0 = time.perf_counter()
-            if self.aeb is not None:
-                w.ego.brake_command = self.aeb.command(w.t)
+            if self.aeb is not None or self.driver is not None:  # the stronger brake wins
+                self.driver_brake = self.driver.command(w.t) if self.driver is not None else None
+                aeb = self.aeb.command(w.t) if self.aeb is not None else None
+                w.ego.brake_command = combine_brakes(aeb, self.driver_brake)
             collisions += w.step()
             sim_ms += (time.perf_counter() - t0) * 1e3
             ticks += 1
@@ -283,6 +290,8 @@ class Runner:
         x, y, yaw = w.ego_pose()
         ego = {"x": x, "y": y, "yaw": yaw, **w.odometry.to_dict(),
                "brake": w.ego.brake_command}
+        if self.driver is not None:  # only with a driver: runs without one record exactly as before
+            ego["driver_brake"] = self.driver_brake
         record = TickRecord(
             tick=w.tick, frame_index=self.frame_index, t=w.t, ego=ego, frame=frame,
             ground_truth=p.gt, detections=p.detections, tracks=p.tracks, estimates=p.est,
@@ -307,6 +316,10 @@ class Runner:
         if self.aeb is not None:
             crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
             self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
+        if self.driver is not None:
+            fcw = fcw_in_path(self.perception.alerts.active(), tracks.track_id.tolist(),
+                              assessment.in_path.tolist())
+            self.driver.decide(frame.t, fcw)
         return Perceived(frame, gt, dets, tracks, est, assessment, alerts, timings)
 
     def close(self) -> None:

@@ -36,6 +36,7 @@ from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, Percepti
 )
 from lookahead.perception.detections import CLASSES
 from lookahead.sim.aeb import AebConfig
+from lookahead.sim.driver import DriverConfig
 from lookahead.sim.shapes import SUBTYPES
 
 ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
@@ -102,6 +103,11 @@ class EgoSpec(Strict):
         False,
         description="autonomous emergency braking (sim.aeb): false = off, true = on with the defaults, or a"
         " mapping of its settings (on), e.g. {latency: 0.3, decel: 8}",
+    )
+    driver: DriverConfig | None = Field(
+        None,
+        description="a driver who brakes for the first in-path forward-collision warning (sim.driver): absent"
+        " = none (no driver reaction), or {reaction_s: s, decel: m/s^2}, e.g. {reaction_s: 1.2, decel: 4.0}",
     )
     length: float = Field(4.6, gt=1.0, le=20.0)
     width: float = Field(1.85, gt=0.5, le=3.0)
