@@ -19,6 +19,8 @@ test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --baseline scenarios/suites/smoke.baseline.json
+	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --aeb on --detector onnx --render \
+		--baseline scenarios/suites/smoke_aeb_pixels.baseline.json
 	$(BIN)/python -m pytest
 
 lint: $(STAMP)
