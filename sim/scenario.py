@@ -8,6 +8,7 @@ longitudinal distance ahead of the ego at t = 0. See docs/scenarios.md.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -233,9 +234,30 @@ class StartSpec(Strict):
     lane: int | None = Field(None, ge=0)
     s: float | None = Field(None, description="ahead of the ego along the road (m) at t=0")
     offset: float = Field(0.0, description="lateral offset within the lane (m, left +)")
+    ref: Literal["centre", "rear", "front", "nearest"] = Field(
+        "centre",
+        description="which point of the actor's footprint the position is: centre (default), rear / front"
+        " (bumper centre, along its heading), nearest (x = its ground-truth range at t=0, y = its centre's)",
+    )
+    impact: float | None = Field(
+        None,
+        ge=0.0,
+        le=100.0,
+        description="instead of y: impact point on the ego's front in % of the ego's width (0 = its left"
+        " side, 50 = its centreline, 100 = its right side); the actor's centre starts at"
+        " y = (0.5 - impact/100) * ego width (actors moving along the road only)",
+    )
 
     @model_validator(mode="after")
     def _one_form(self) -> StartSpec:
+        if self.impact is not None:
+            if self.y is not None or self.lane is not None or self.s is not None or "offset" in self.model_fields_set:
+                raise ValueError(
+                    "impact sets the lateral position: give it as {x, impact}, without y, lane, s or offset"
+                )
+            if self.x is None:
+                raise ValueError("impact needs x: give {x, impact}")
+            return self
         xy = self.x is not None and self.y is not None
         ls = self.lane is not None and self.s is not None
         if xy == ls:
@@ -287,6 +309,15 @@ class ActorSpec(Strict):
     heading: float = Field(0.0, description="deg, world; 0 = along the road, 90 = to the left")
     speed: float = Field(0.0, ge=0.0, le=60.0, description="initial speed (m/s)")
     script: list[StepSpec] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _impact_along_the_road(self) -> ActorSpec:
+        if self.start.impact is not None and abs(math.sin(math.radians(self.heading))) > 1e-9:
+            raise ValueError(
+                f"start.impact needs a heading along the road (0 or 180), not {self.heading:g}: a crossing"
+                " actor's impact point depends on its timing; place it with {x, y} and time it with a trigger"
+            )
+        return self
 
     @model_validator(mode="after")
     def _subtype(self) -> ActorSpec:

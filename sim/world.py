@@ -53,6 +53,19 @@ def nearest_x_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray)
     return 0.5 * (np.abs(np.cos(rel_yaw)) * length + np.abs(np.sin(rel_yaw)) * width)
 
 
+def ref_to_centre(ref: str, yaw: float, length: float, width: float) -> np.ndarray:
+    """World-frame vector from a footprint's ``ref`` point (rear, front, nearest) to its centre.
+
+    ``rear`` / ``front``: the bumper centre, half a length behind / ahead of the centre along ``yaw``;
+    ``nearest``: the centre lies the footprint's half x-extent beyond (the ego starts heading along +x,
+    so the given x is the ground-truth range at t=0: the nearest point's x).
+    """
+    if ref == "nearest":
+        return np.array([float(nearest_x_extent(np.array(yaw), np.array(length), np.array(width))), 0.0])
+    sign = 1.0 if ref == "rear" else -1.0
+    return sign * 0.5 * float(length) * np.array([np.cos(yaw), np.sin(yaw)])
+
+
 class World:
     """A deterministic closed-loop world built from a ``Scenario``."""
 
@@ -122,8 +135,12 @@ class World:
             st = spec.start
             if st.lane is not None:
                 pos = np.array([self._origin0[0] + st.s, self.geometry.lane_y(st.lane) + st.offset])
+            elif st.impact is not None:  # % of the ego's width from its left side; 50 = centreline
+                pos = self.to_world(np.array([st.x, (0.5 - st.impact / 100.0) * self.scenario.ego.width]))
             else:
                 pos = self.to_world(np.array([st.x, st.y]))
+            if st.ref != "centre":
+                pos = pos + ref_to_centre(st.ref, np.radians(spec.heading), *shape.footprint)
             ident = Identity(i + 1, spec.id, spec.type, spec.subtype, shape)
             a = ScriptedActor(self.road, ident, spec, pos, np.radians(spec.heading), self.to_world)
             a.lane_y = self.geometry.lane_y
