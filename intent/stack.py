@@ -10,7 +10,7 @@ module loads neither highway-env, gymnasium nor PyBullet, so the stack runs on v
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -91,10 +91,21 @@ class PerceptionStack:
 
     def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
         """Whether a CRITICAL alert is on for an in-path track, and the nearest in-path range (m)."""
-        active = self.alerts.active()
-        crit = any(active.get(int(t), 0) >= Risk.CRITICAL and a.in_path[i] for i, t in enumerate(tracks.track_id))
+        crit = alert_in_path(self.alerts.active(), tracks.track_id.tolist(), a.in_path.tolist(), Risk.CRITICAL)
         rng = est.range[a.in_path & np.isfinite(est.range)]
         return crit, float(rng.min()) if len(rng) else float("inf")
+
+
+def alert_in_path(active: Mapping[int, int], track_ids: Sequence[int], in_path: Sequence[bool],
+                  level: Risk) -> bool:
+    """Whether an alert of ``level`` or above is on for an in-path track (the AEB's rule at
+    CRITICAL; a forward-collision warning at HIGH).
+
+    Args:
+        active: track id -> current alert level (``AlertManager.active()``).
+        track_ids: this frame's track ids; ``in_path``: per track, whether it is in the ego's path.
+    """
+    return any(active.get(int(t), 0) >= level and bool(p) for t, p in zip(track_ids, in_path, strict=True))
 
 
 def build_stack(

@@ -3,8 +3,8 @@
 Decides at camera frames, acts on the ego at simulation ticks (as ``sim.aeb``).
 At the first camera frame with a forward-collision warning on an in-path object
 (an active alert of level HIGH or above, i.e. ``fcw`` or ``critical``, on a track
-the intent stack counts as in the ego's path — the AEB's in-path rule at HIGH
-instead of CRITICAL), the driver starts braking ``reaction_s`` later (sim-tick
+the intent stack counts as in the ego's path: ``intent.stack.alert_in_path`` at HIGH,
+the AEB's rule at CRITICAL), the driver starts braking ``reaction_s`` later (sim-tick
 resolution) at ``decel`` m/s², and keeps braking to a standstill and holds it
 for the rest of the run: a driver who braked for a warning does not drive on
 into the obstacle in these tests. Later warnings change nothing. Euro NCAP's FCW
@@ -16,11 +16,7 @@ the stronger deceleration wins (``combine_brakes``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-
 from pydantic import BaseModel, ConfigDict, Field
-
-from lookahead.intent.labels import Risk
 
 
 class DriverConfig(BaseModel):
@@ -28,16 +24,6 @@ class DriverConfig(BaseModel):
     reaction_s: float = Field(
         1.2, ge=0.0, le=10.0, description="s from the first in-path forward-collision warning to braking")
     decel: float = Field(4.0, gt=0.0, le=12.0, description="the driver's braking deceleration (m/s^2)")
-
-
-def fcw_in_path(active: Mapping[int, int], track_ids: Sequence[int], in_path: Sequence[bool]) -> bool:
-    """Whether an alert of level HIGH or above is on for an in-path track.
-
-    Args:
-        active: track id -> current alert level (``AlertManager.active()``).
-        track_ids: this frame's track ids; ``in_path``: per track, whether it is in the ego's path.
-    """
-    return any(active.get(int(t), 0) >= Risk.HIGH and bool(p) for t, p in zip(track_ids, in_path, strict=True))
 
 
 def combine_brakes(*commands: float | None) -> float | None:

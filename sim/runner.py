@@ -23,8 +23,8 @@ import numpy as np
 
 from lookahead.intent.alerts import Alert
 from lookahead.intent.config import IntentConfig
-from lookahead.intent.labels import Assessment
-from lookahead.intent.stack import build_stack
+from lookahead.intent.labels import Assessment, Risk
+from lookahead.intent.stack import alert_in_path, build_stack
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.config import SettingsError
 from lookahead.perception.detections import Detections
@@ -33,7 +33,7 @@ from lookahead.perception.estimator import Estimates
 from lookahead.perception.frame import Frame
 from lookahead.perception.tracker import Tracks
 from lookahead.sim.aeb import Aeb
-from lookahead.sim.driver import Driver, combine_brakes, fcw_in_path
+from lookahead.sim.driver import Driver, combine_brakes
 from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
 from lookahead.sim.records import Sink, TickRecord
@@ -317,8 +317,8 @@ class Runner:
             crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
             self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
         if self.driver is not None:
-            fcw = fcw_in_path(self.perception.alerts.active(), tracks.track_id.tolist(),
-                              assessment.in_path.tolist())
+            fcw = alert_in_path(self.perception.alerts.active(), tracks.track_id.tolist(),
+                                assessment.in_path.tolist(), Risk.HIGH)
             self.driver.decide(frame.t, fcw)
         return Perceived(frame, gt, dets, tracks, est, assessment, alerts, timings)
 

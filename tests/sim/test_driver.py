@@ -6,7 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from lookahead.sim.driver import Driver, DriverConfig, combine_brakes, fcw_in_path
+from lookahead.intent.labels import Risk
+from lookahead.intent.stack import alert_in_path
+from lookahead.sim.driver import Driver, DriverConfig, combine_brakes
 from lookahead.sim.records import RecordCollector
 from lookahead.sim.runner import Runner
 from lookahead.sim.scenario import Scenario, ScenarioError, load_scenario, parse_scenario
@@ -54,10 +56,10 @@ def test_driver_unit():
     assert d.warned_at == 1.0 and d.command(100.0) == 4.0
     assert combine_brakes(None, None) is None
     assert combine_brakes(6.0, None) == 6.0 and combine_brakes(None, 4.0) == 4.0 and combine_brakes(6.0, 4.0) == 6.0
-    assert fcw_in_path({3: 3, 4: 4}, [3, 4], [False, False]) is False  # alerts, but none in path
-    assert fcw_in_path({3: 3}, [3, 4], [False, True]) is False  # in path, but no alert on it
-    assert fcw_in_path({4: 3}, [3, 4], [False, True]) is True  # HIGH (3) in path
-    assert fcw_in_path({4: 4}, [4], [True]) is True  # CRITICAL is above HIGH
+    assert alert_in_path({3: 3, 4: 4}, [3, 4], [False, False], Risk.HIGH) is False  # alerts, but none in path
+    assert alert_in_path({3: 3}, [3, 4], [False, True], Risk.HIGH) is False  # in path, but no alert on it
+    assert alert_in_path({4: 3}, [3, 4], [False, True], Risk.HIGH) is True  # HIGH (3) in path
+    assert alert_in_path({4: 4}, [4], [True], Risk.HIGH) is True  # CRITICAL is above HIGH
 
 
 def test_driver_field_parses_with_bounds():
