@@ -39,7 +39,8 @@ Reward per step (``dt`` = the frame period, s)::
 env's runner ends on one); ``truncated`` when the scenario's ``duration`` is reached.
 ``info``: ``t``, ``ground_truth`` (``GroundTruth.to_dict()``), ``assessment``
 (``Assessment.to_dict()``), ``alerts`` (list of ``Alert.to_dict()``), ``collisions`` (list
-of ``Collision.to_dict()``), ``aeb_braking`` and ``reward_terms``.
+of ``Collision.to_dict()``), ``aeb_braking`` (the AEB's own brake is on at the step's last
+world tick; a scenario driver model's braking does not count) and ``reward_terms``.
 
 Choices through ``gym.make(id, ...)``: ``scenario`` (YAML path or ``Scenario``),
 ``render_camera``, ``detector`` (``gt`` noise model; ``onnx``, the shipped model on the
@@ -191,7 +192,7 @@ class LookaheadEnv(gymnasium.Env):
             "assessment": p.assessment.to_dict(),
             "alerts": [al.to_dict() for al in p.alerts],
             "collisions": [c.to_dict() for c in collisions],
-            "aeb_braking": r.world.ego.brake_command is not None,
+            "aeb_braking": r.aeb_brake is not None,  # the AEB's own brake, not a driver model's
             "reward_terms": terms or {},
         }
 

@@ -7,6 +7,10 @@ and the driver (``sim.driver``, if the scenario has one) decide, and a ``TickRec
 to every sink. ``Runner.step`` advances one camera frame (the gym env steps with it);
 ``Runner.run`` loops over it to the end. Sinks are injected (observers) so ``sim`` never
 imports ``tools``. Each stage is timed (ms).
+A record's ``ego`` holds the pose, the odometry and ``brake``, the brake command applied
+(m/s^2, null while none is on: the stronger of the AEB's and the driver's); runs with the
+AEB on add ``aeb_brake`` (the AEB's own command), runs with a driver ``driver_brake``
+(the driver's), so a run with neither records exactly as before they existed.
 A setting the stack refuses (``SettingsError``, e.g. ``onnx`` without rendering) is the
 scenario's: the runner raises it as ``ScenarioError``.
 """
@@ -173,6 +177,7 @@ class Runner:
         self.aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
         self.driver = Driver(scenario.ego.driver) if scenario.ego.driver is not None else None
         self.driver_brake: float | None = None  # the driver's brake command (m/s^2) of the last tick
+        self.aeb_brake: float | None = None  # the AEB's own brake command (m/s^2) of the last tick
         self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))  # world ticks per frame
         self.n_ticks = int(round(scenario.duration * scenario.rate))  # world ticks of the whole run
         self.frame_index = 0  # index of the next camera frame
@@ -263,8 +268,8 @@ class Runner:
             t0 = time.perf_counter()
             if self.aeb is not None or self.driver is not None:  # the stronger brake wins
                 self.driver_brake = self.driver.command(w.t) if self.driver is not None else None
-                aeb = self.aeb.command(w.t) if self.aeb is not None else None
-                w.ego.brake_command = combine_brakes(aeb, self.driver_brake)
+                self.aeb_brake = self.aeb.command(w.t) if self.aeb is not None else None
+                w.ego.brake_command = combine_brakes(self.aeb_brake, self.driver_brake)
             collisions += w.step()
             sim_ms += (time.perf_counter() - t0) * 1e3
             ticks += 1
@@ -290,6 +295,8 @@ class Runner:
         x, y, yaw = w.ego_pose()
         ego = {"x": x, "y": y, "yaw": yaw, **w.odometry.to_dict(),
                "brake": w.ego.brake_command}
+        if self.aeb is not None:  # only with the AEB on: runs without it record exactly as before
+            ego["aeb_brake"] = self.aeb_brake
         if self.driver is not None:  # only with a driver: runs without one record exactly as before
             ego["driver_brake"] = self.driver_brake
         record = TickRecord(

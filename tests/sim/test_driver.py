@@ -128,3 +128,21 @@ def test_driver_and_aeb_the_stronger_brake_wins():
     assert {b for t, b in ticks if drv_on + 1e-9 < t < aeb_on - 1e-9} == {2.0}
     assert {b for t, b in ticks if t > aeb_on + 1e-9} == {6.0}
     assert not r.summary.collisions
+
+
+def test_the_aeb_brake_is_recorded_apart_from_the_driver_brake():
+    """``ego.aeb_brake`` is the AEB's own command: null while only the driver brakes, 6 m/s^2
+    once the AEB engages; runs without the AEB have no such field."""
+    r, rc, _ = run(stationary_car(DriverConfig(reaction_s=1.2, decel=2.0), aeb=True))
+    aeb_on = r.aeb.activations[0] + r.aeb.config.latency
+    driver_only = [rec for rec in rc.records if r.driver.brake_at + 1e-9 < rec.t < aeb_on - 1e-9]
+    assert driver_only  # frames where the driver alone brakes
+    assert all(rec.ego["aeb_brake"] is None and rec.ego["driver_brake"] == 2.0 == rec.ego["brake"]
+               for rec in driver_only)
+    after = [rec for rec in rc.records if rec.t > aeb_on + 1e-9]
+    assert after and all(rec.ego["aeb_brake"] == 6.0 == rec.ego["brake"] for rec in after)
+    assert all(rec.ego["aeb_brake"] is None for rec in rc.records if rec.t < aeb_on - 1e-9)
+
+    _, no_aeb, _ = run(stationary_car(DriverConfig(reaction_s=1.2, decel=4.0)))
+    assert any(rec.ego["brake"] == 4.0 for rec in no_aeb.records)  # the driver brakes
+    assert all("aeb_brake" not in rec.ego for rec in no_aeb.records)

@@ -170,3 +170,31 @@ def test_weather_and_detector_choices_reach_the_scenario():
         assert "render_camera" in str(e)
     else:
         raise AssertionError("onnx without the camera must be refused")
+
+
+def _braking_flags(aeb: bool, decel: float) -> tuple[list[bool], float]:
+    """``info["aeb_braking"]`` per step on the stationary car with a 1.2 s driver model braking at
+    ``decel`` (m/s^2) and an agent that holds its speed; also the ego's final speed (m/s)."""
+    from lookahead.sim.driver import DriverConfig
+
+    sc = load_scenario(STATIONARY)
+    sc = sc.model_copy(update={"ego": sc.ego.model_copy(update={"driver": DriverConfig(decel=decel)})})
+    env = LookaheadEnv(scenario=sc, aeb=aeb)
+    env.reset(seed=7)
+    flags: list[bool] = []
+    done = False
+    while not done:
+        obs, _, terminated, truncated, info = env.step(np.zeros(1, np.float32))
+        flags.append(info["aeb_braking"])
+        done = terminated or truncated
+    env.close()
+    return flags, float(obs["ego"][0])
+
+
+def test_aeb_braking_info_is_the_aebs_own_brake_not_the_drivers():
+    flags, speed = _braking_flags(aeb=False, decel=4.0)
+    assert speed < 0.1  # the driver braked the ego to a standstill
+    assert not any(flags)  # ... and the AEB, which is off, never did
+    # with the AEB on and a driver too gentle to avoid its CRITICAL alert, the AEB brakes too
+    flags, _ = _braking_flags(aeb=True, decel=2.0)
+    assert not flags[0] and any(flags)

@@ -64,6 +64,7 @@ from lookahead.sim.records import jsonable
 from lookahead.sim.runner import camera_from_scenario
 from lookahead.sim.scenario import Scenario
 from lookahead.tools.runs.suite import read_yaml
+from lookahead.tools.scoring.intent import aeb_brake_of
 from lookahead.tools.scoring.run import score_run
 from lookahead.tools.scoring.totals import RunFrames, suite_totals
 from lookahead.tools.sinks.rundir import (
@@ -237,7 +238,7 @@ def replay_run(
             timings["tick"] = (time.perf_counter() - t0) * 1e3
             if aeb is not None:
                 would_brake = aeb.command(t - sim_dt) is not None
-                if would_brake != bool(ego.get("brake")):
+                if would_brake != bool(aeb_brake_of(ego)):  # the recorded AEB's own brake
                     divergent += 1
                     first_divergence = t if first_divergence is None else first_divergence
                 crit, nearest = stack.critical_in_path(tracks, est, assessment)

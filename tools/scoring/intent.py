@@ -24,10 +24,14 @@ Definitions (documented constants):
 * A track's object: the ground-truth actor it is matched with most often.
 * ``ttc_when_first_visible``: the object's true TTC at the first frame it was
   visible (``NEVER`` = 1e9 when not closing): a warning cannot come earlier than that.
-* AEB brake onset (``aeb`` section): a frame whose ``ego.brake`` is non-null after a
-  frame where it was null (or the first frame, braking). It is *justified* when some
-  ground-truth actor, at a frame from ``AEB_BEFORE_S`` = 0.5 s before the onset to
-  ``AEB_AFTER_S`` = 0.3 s after it, is labelled ``danger`` (in path, TTC or closing
+* AEB brake onset (``aeb`` section): a frame whose AEB brake is non-null after a
+  frame where it was null (or the first frame, braking). The AEB brake is the AEB's own
+  command, ``ego.aeb_brake``, so a driver model's braking (``ego.driver_brake``) is no
+  onset; run directories written before that field existed fall back to ``ego.brake``
+  (the command applied), except runs whose ``run.json`` says the AEB was off, which
+  have no AEB brake (``aeb_brake_of``); ``closed_loop.aeb_active_s`` counts the same
+  frames. An onset is *justified* when some ground-truth actor, at a frame from
+  ``AEB_BEFORE_S`` = 0.5 s before the onset to ``AEB_AFTER_S`` = 0.3 s after it, is labelled ``danger`` (in path, TTC or closing
   range under its class's HIGH thresholds) or is in path with a true TTC below
   ``AEB_TTC_BOUND_S`` (the largest default CRITICAL TTC, the AEB's trigger, 2.0 s, plus
   0.5 s). The window is the label tolerance (0.3 s) either side of the decision, which
@@ -77,7 +81,8 @@ class IntentRun:
     expect: list[dict] = field(default_factory=list)
     aeb_frames: int = 0
     gt_in_path: dict[int, set[int]] = field(default_factory=lambda: defaultdict(set))  # actor -> frames in path
-    braking: list[bool] = field(default_factory=list)  # per frame: ego.brake non-null
+    braking: list[bool] = field(default_factory=list)  # per frame: the AEB brake non-null (aeb_brake_of)
+    aeb_on: bool | None = None  # run.json's scenario.ego.aeb is on (None: not recorded)
 
 
 def load_intent_run(run: RunDir | Path) -> IntentRun:
@@ -87,7 +92,11 @@ def load_intent_run(run: RunDir | Path) -> IntentRun:
     records = rd.ticks  # FileNotFoundError / RunDirError before run.json is looked at
     out = IntentRun()
     if rd.has(RUN_FILE):
-        out.expect = list(rd.run.get("scenario", {}).get("expect", []) or [])
+        scenario = rd.run.get("scenario", {}) or {}
+        out.expect = list(scenario.get("expect", []) or [])
+        ego = scenario.get("ego")
+        if isinstance(ego, dict) and "aeb" in ego:
+            out.aeb_on = ego["aeb"] not in (None, False)
     for f, rec in enumerate(records):
         try:
             out.t.append(float(rec["t"]))
@@ -127,10 +136,23 @@ def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
                 out.pairs.append((f, int(gids[g]), int(tids[t]), int(labels[t])))
     out.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
     out.collisions += rec.get("collisions") or []
-    brake = (rec.get("ego") or {}).get("brake")
+    brake = aeb_brake_of(rec.get("ego") or {}, out.aeb_on)
     out.braking.append(brake is not None)
     if brake:
         out.aeb_frames += 1
+
+
+def aeb_brake_of(ego: dict, aeb_on: bool | None = None) -> float | None:
+    """The AEB's own brake command (m/s^2, None while off) in a record's ``ego``.
+
+    ``aeb_brake`` when recorded (runs with the AEB on); without it, None if the run had no
+    AEB (``aeb_on`` False, from run.json: any ``brake`` is a driver model's), else ``brake``
+    (run directories written before ``aeb_brake`` existed, where it was the AEB's)."""
+    if "aeb_brake" in ego:
+        return ego["aeb_brake"]
+    if aeb_on is False:
+        return None
+    return ego.get("brake")
 
 
 def _label_near(run: IntentRun, actor: int, f: int, label: int, tol_frames: int) -> bool:
@@ -259,7 +281,8 @@ def evaluate_closed_loop(run: IntentRun) -> dict:
 
 
 def brake_onsets(run: IntentRun) -> list[int]:
-    """Frames at which the AEB brake comes on (non-null after null, or braking at the first frame)."""
+    """Frames at which the AEB's own brake comes on (non-null after null, or braking at the
+    first frame); a driver model's braking is not the AEB's (``aeb_brake_of``)."""
     return [f for f, b in enumerate(run.braking) if b and (f == 0 or not run.braking[f - 1])]
 
 

@@ -135,3 +135,49 @@ def test_totals_sum_counts_and_recompute_the_rate(tmp_path):
     # runs without AEB onsets anywhere: no rate; metrics files without the section pool as nothing
     none = intent_totals([runs[2], {k: v for k, v in runs[2].items() if k != "aeb"}])["aeb"]
     assert none == {"runs": 1, "brake_onsets": 0, "false_activations": 0, "false_activation_rate": None}
+
+
+def _stationary_car_run(out: Path, aeb: bool) -> Path:
+    """The shipped stationary car (40 km/h) with a 1.2 s / 4 m/s^2 driver model, written to ``out``."""
+    from lookahead.sim.driver import DriverConfig
+    from lookahead.sim.runner import Runner
+    from lookahead.sim.scenario import load_scenario
+    from lookahead.tools.sinks.rundir import RunDirWriter
+
+    sc = load_scenario(Path(__file__).resolve().parents[3] / "scenarios" / "stationary_car.yaml")
+    sc = sc.model_copy(update={"ego": sc.ego.model_copy(update={"driver": DriverConfig(), "aeb": aeb})})
+    Runner(sc, sinks=[RunDirWriter(out, sc)], render=False).run()
+    return out
+
+
+def test_a_driver_braking_without_the_aeb_is_no_onset(tmp_path):
+    run = _stationary_car_run(tmp_path / "run", aeb=False)
+    ticks = [json.loads(x) for x in (run / "ticks.jsonl").read_text().splitlines()]
+    assert any(t["ego"]["brake"] for t in ticks)  # the driver brakes ...
+    sections = intent_sections(load_intent_run(run))
+    assert sections["aeb"]["brake_onsets"] == 0  # ... which is not the AEB
+    assert sections["closed_loop"]["aeb_active_s"] == 0.0
+
+
+def test_onsets_are_the_aebs_own_brake(tmp_path):
+    """Ticks with ``aeb_brake`` score from it, not from ``brake`` (which a driver's braking sets)."""
+    run = write_run(tmp_path, braking((2, 5), (12, N)), lead_danger_from(10))
+    lines = [json.loads(x) for x in (run / "ticks.jsonl").read_text().splitlines()]
+    for f, rec in enumerate(lines):  # the AEB's own brake only from frame 12: the first span is a driver's
+        rec["ego"]["aeb_brake"] = 6.0 if f >= 12 else None
+    (run / "ticks.jsonl").write_text("\n".join(json.dumps(x) for x in lines) + "\n")
+    aeb = evaluate_aeb(load_intent_run(run))
+    assert (aeb["brake_onsets"], aeb["false_activations"]) == (1, 0)
+    assert aeb["onset_list"][0]["t"] == 1.2
+
+
+def test_old_run_directories_without_aeb_brake_score_from_brake(tmp_path):
+    # write_run records ``brake`` only, as runs did before ``aeb_brake``: scored from it
+    (tmp_path / "a").mkdir()
+    aeb = evaluate_aeb(load_intent_run(write_run(tmp_path / "a", braking((4, 9)), lambda f: [parked(f)])))
+    assert (aeb["brake_onsets"], aeb["false_activations"]) == (1, 1)
+    # unless run.json says the AEB was off: that brake was not the AEB's
+    (tmp_path / "b").mkdir()
+    run = write_run(tmp_path / "b", braking((4, 9)), lambda f: [parked(f)])
+    (run / "run.json").write_text(json.dumps({"scenario": {"expect": [], "ego": {"aeb": False}}}))
+    assert evaluate_aeb(load_intent_run(run))["brake_onsets"] == 0
