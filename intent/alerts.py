@@ -48,7 +48,8 @@ class AlertConfig(BaseModel):
 @dataclass
 class Alert:
     """An alert event: ``kind`` is ``fcw`` (rose to HIGH), ``critical`` (rose to
-    CRITICAL) or ``clear`` (fell below HIGH); ``level`` is the new alert level."""
+    CRITICAL) or ``clear`` (fell below HIGH); ``level`` is the new alert level; ``ttc``
+    the enhanced (constant-acceleration) TTC risk decided on (s)."""
 
     t: float
     track_id: int
@@ -108,6 +109,7 @@ class AlertManager:
         cfg = self.config
         events: list[Alert] = []
         seen = set()
+        ttc = a.ttc if a.ettc is None else a.ettc  # the TTC risk decided on (enhanced when known)
         for i, tid in enumerate(np.asarray(track_ids).tolist()):
             seen.add(tid)
             st = self.states.setdefault(tid, _TrackAlertState())
@@ -132,9 +134,9 @@ class AlertManager:
                 if kind == "fcw" and st.level == Risk.CRITICAL:
                     kind = "downgrade"
                 lvl_for_text = new if new else risk
-                en, zh = reason_text(float(range_m[i]), float(a.ttc[i]), int(a.behaviour[i]), int(a.label[i]), lvl_for_text)
+                en, zh = reason_text(float(range_m[i]), float(ttc[i]), int(a.behaviour[i]), int(a.label[i]), lvl_for_text)
                 events.append(Alert(t, int(tid), kind, int(new), int(class_id[i]), float(range_m[i]),
-                                    float(a.ttc[i]), int(a.behaviour[i]), int(a.label[i]), en, zh))
+                                    float(ttc[i]), int(a.behaviour[i]), int(a.label[i]), en, zh))
                 st.level = new
         for tid in list(self.states):  # tracks gone for good: their alerts clear silently
             if tid not in seen:

@@ -6,15 +6,30 @@ fills it from true kinematics, the estimator from its tracks; both call
 ``assess``. Definitions (docs/architecture.md, "Labels"):
 
 * TTC = range / closing speed when closing (range rate < 0), else inf; 0 when
-  the object already reaches the ego's front (range <= 0).
+  the object already reaches the ego's front (range <= 0). Enhanced TTC (ETTC)
+  and the required deceleration: the same under constant accelerations, a
+  braking body stopping (``intent.collision``); with no acceleration known, ETTC
+  = TTC. Risk and in-path decide on ETTC.
+* Motion significance: with estimated velocities (``ground_vx_sigma`` /
+  ``ground_vy_sigma`` given), a ground velocity component smaller than
+  ``motion_significance`` stds is taken as 0 for behaviours and the in-path
+  prediction (``critical_motion_significance`` for CRITICAL) -- a parked car's noisy velocity does not drift it into the lane
+  nor make it ``wrong_way``. Ground truth (no stds) is used as it is.
 * Ego corridor: |y - c(r)| < ego_half_width + corridor_margin + object half
   width, where c(r) = r^2 * yaw_rate / (2 * speed) bends it along the ego's
   predicted arc. *In path*: the object overlaps the corridor now or at any time
   in [0, min(horizon, TTC + arrival_slack)] under constant lateral velocity.
-* Risk: per class group, from TTC (CRITICAL < critical_ttc, HIGH < high_ttc,
-  MEDIUM < 2 x high_ttc, LOW < 4 x high_ttc) and range (same ladder with the
-  distance thresholds; above MEDIUM only while closing). HIGH and CRITICAL
-  need the object in path, otherwise risk is capped at MEDIUM.
+* Risk: per class group, from ETTC (CRITICAL < critical_ttc, HIGH < high_ttc,
+  MEDIUM < 2 x high_ttc, LOW < 4 x high_ttc), range (same ladder with the
+  distance thresholds; above MEDIUM only while closing on a collision course:
+  range rate below -deadband and a finite ETTC) and the required
+  deceleration (HIGH >= high_decel, CRITICAL >= critical_decel). HIGH and
+  CRITICAL need the object in path, otherwise risk is capped at MEDIUM;
+  CRITICAL (the AEB's level) needs it in path even ``critical_path_sigmas``
+  lateral stds further out, with lateral motion significant at
+  ``critical_motion_significance`` stds (estimates only), otherwise it is
+  capped at HIGH -- braking needs more evidence than a warning: a parked car
+  whose estimate grazes the corridor's edge warns, never brakes.
 * Labels: ``initializing`` (prediction younger than init_frames, or whose
   velocity estimate has not settled yet: ``Kinematics.settled``) > ``danger``
   (risk >= HIGH, i.e. in path and TTC or closing range under the HIGH
@@ -29,6 +44,7 @@ from enum import IntEnum
 
 import numpy as np
 
+from lookahead.intent.collision import enhanced_ttc, required_decel
 from lookahead.intent.config import IntentConfig
 from lookahead.perception.detections import CLASS_ID
 from lookahead.perception.estimator import time_to_collision
@@ -117,10 +133,21 @@ GROUP_OF_CLASS = {
     "truck": "vehicle",
     "bus": "vehicle",
 }
-GROUPS = ("pedestrian", "animal", "non_motor", "vehicle")
+GROUPS = ("pedestrian", "animal", "non_motor", "vehicle", "large_animal")
 _GROUP_INDEX = np.full(len(CLASS_ID) + 1, GROUPS.index("vehicle"), dtype=np.int64)
 for _name, _cid in CLASS_ID.items():
     _GROUP_INDEX[_cid] = GROUPS.index(GROUP_OF_CLASS[_name])
+
+
+def class_groups(k: Kinematics, config: IntentConfig) -> np.ndarray:
+    """Threshold group index (into ``GROUPS``) of each object: its class's group, and
+    ``large_animal`` for an animal at least ``config.large_animal_height`` tall (deer, cattle,
+    boar; dogs stay ``animal``) -- by size, as the detector has one animal class."""
+    g = _GROUP_INDEX[np.clip(np.asarray(k.class_id, dtype=np.int64), 0, len(_GROUP_INDEX) - 1)]
+    if k.height is None:
+        return g
+    large = (g == GROUPS.index("animal")) & (np.asarray(k.height, dtype=np.float64) >= config.large_animal_height)
+    return np.where(large, GROUPS.index("large_animal"), g)
 
 
 @dataclass
@@ -136,7 +163,12 @@ class Kinematics:
     range_rate_sigma: std of the estimated range rate (m/s; None for ground
     truth, which is exact); settled: 1 once the estimator's range rate has
     converged, 0 before, NaN without an estimate -- predictions not settled
-    are ``initializing`` (None for ground truth).
+    are ``initializing`` (None for ground truth); accel_x: the object's ground
+    acceleration along the ego x axis (m/s^2; None or NaN = 0, for the enhanced
+    TTC); ground_vx_sigma / ground_vy_sigma: stds of the estimated ground
+    velocity (m/s; None for ground truth); lateral_sigma: std of the estimated
+    lateral offset (m; None for ground truth); height: the object's height (m; None =
+    unknown), which makes an animal of ``large_animal_height`` or more a large animal.
     """
 
     class_id: np.ndarray
@@ -152,20 +184,40 @@ class Kinematics:
     age: np.ndarray | None = None
     range_rate_sigma: np.ndarray | None = None
     settled: np.ndarray | None = None
+    accel_x: np.ndarray | None = None
+    ground_vx_sigma: np.ndarray | None = None
+    ground_vy_sigma: np.ndarray | None = None
+    lateral_sigma: np.ndarray | None = None
+    height: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.range)
 
+    def significant_ground_velocity(self, z: float) -> tuple[np.ndarray, np.ndarray]:
+        """(v_x, v_y) over the ground with each component below ``z`` of its std set to 0
+        (as given where no std is known, or z <= 0)."""
+        out = []
+        for v, sig in ((self.ground_vx, self.ground_vx_sigma), (self.ground_vy, self.ground_vy_sigma)):
+            v = np.asarray(v, dtype=np.float64)
+            if sig is not None and z > 0:
+                v = np.where(np.abs(v) >= z * np.nan_to_num(np.asarray(sig, dtype=np.float64), nan=np.inf), v, 0.0)
+            out.append(v)
+        return out[0], out[1]
+
 
 @dataclass
 class Assessment:
-    """Per-object outputs of ``assess`` (all (N,) arrays)."""
+    """Per-object outputs of ``assess`` (all (N,) arrays): constant-velocity ``ttc`` (s),
+    ``ettc`` (enhanced, s), ``decel_req`` (the ego's required deceleration, m/s^2),
+    ``in_path``, ``risk``, ``label``, ``behaviour``."""
 
     ttc: np.ndarray
     in_path: np.ndarray
     risk: np.ndarray
     label: np.ndarray
     behaviour: np.ndarray
+    ettc: np.ndarray | None = None
+    decel_req: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ttc)
@@ -177,6 +229,8 @@ class Assessment:
             "risk": self.risk.tolist(),
             "label": self.label.tolist(),
             "behaviour": self.behaviour.tolist(),
+            **{name: np.round(np.minimum(getattr(self, name), NEVER), 3).tolist()
+               for name in ("ettc", "decel_req") if getattr(self, name) is not None},
         }
 
 
@@ -185,6 +239,8 @@ def _threshold_table(config: IntentConfig) -> dict[str, np.ndarray]:
     bt = [config.behaviour[g] for g in GROUPS]
     return {
         "d_high": np.array([r.high_distance for r in rt]),
+        "a_high": np.array([r.high_decel for r in rt]),
+        "a_crit": np.array([r.critical_decel for r in rt]),
         "d_crit": np.array([r.critical_distance for r in rt]),
         "t_high": np.array([r.high_ttc for r in rt]),
         "t_crit": np.array([r.critical_ttc for r in rt]),
@@ -206,26 +262,35 @@ def _ladder(value: np.ndarray, crit: np.ndarray, high: np.ndarray) -> np.ndarray
 
 
 def in_path(
-    k: Kinematics, ttc: np.ndarray, config: IntentConfig, ego_speed: float, ego_yaw_rate: float
+    k: Kinematics, ttc: np.ndarray, config: IntentConfig, ego_speed: float, ego_yaw_rate: float,
+    sigmas: float = 0.0, look_ahead: bool = True, significance: float | None = None,
 ) -> np.ndarray:
-    """Whether each object overlaps the ego corridor now or within the prediction window."""
+    """Whether each object overlaps the ego corridor now or within the prediction window
+    (now only, without ``look_ahead``); with ``sigmas`` > 0, even when placed that many
+    lateral stds (``Kinematics.lateral_sigma``) further out (ground truth: no std, the same test);
+    ``significance``: z of the lateral motion taken as real (default ``motion_significance``)."""
     r = np.asarray(k.range, dtype=np.float64)
     curvature = ego_yaw_rate / max(ego_speed, 1.0)
     centre = 0.5 * curvature * np.maximum(r, 0.0) ** 2
     half = config.ego_half_width + config.corridor_margin + np.asarray(k.half_width)
     d0 = np.asarray(k.lateral) - centre
-    window = np.minimum(config.horizon, ttc + config.arrival_slack)
-    d1 = d0 + np.asarray(k.lateral_rate) * window
+    window = np.minimum(config.horizon, ttc + config.arrival_slack) if look_ahead else 0.0
+    z = config.motion_significance if significance is None else significance
+    _, vy = k.significant_ground_velocity(z)
+    lateral_rate = np.asarray(k.lateral_rate) - np.asarray(k.ground_vy) + vy  # ego rotation kept
+    d1 = d0 + lateral_rate * window
     crosses = np.sign(d0) != np.sign(d1)
     closest = np.where(crosses, 0.0, np.minimum(np.abs(d0), np.abs(d1)))
+    if sigmas > 0.0 and k.lateral_sigma is not None:
+        closest = closest + sigmas * np.nan_to_num(np.asarray(k.lateral_sigma, dtype=np.float64), nan=np.inf)
     return (closest < half) & (r > -1.0)
 
 
 def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = None) -> np.ndarray:
     """Behaviour code (N,) per object from its ground motion (see ``Behaviour``)."""
     th = thresholds or _threshold_table(config)
-    g = _GROUP_INDEX[np.clip(np.asarray(k.class_id, dtype=np.int64), 0, len(_GROUP_INDEX) - 1)]
-    vx, vy = np.asarray(k.ground_vx), np.asarray(k.ground_vy)
+    g = class_groups(k, config)
+    vx, vy = k.significant_ground_velocity(config.motion_significance)
     speed = np.hypot(vx, vy)
     still, fast, cross_v = th["still"][g], th["fast"][g], th["cross"][g]
     half = config.ego_half_width + config.corridor_margin + np.asarray(k.half_width)
@@ -237,7 +302,8 @@ def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = No
     yaw = np.nan_to_num(np.asarray(k.yaw_rate, dtype=np.float64), nan=0.0)
     moving = speed >= still
 
-    ped, ani = g == GROUPS.index("pedestrian"), g == GROUPS.index("animal")
+    ped = g == GROUPS.index("pedestrian")
+    ani = (g == GROUPS.index("animal")) | (g == GROUPS.index("large_animal"))
     wheeled = ~(ped | ani)
     out = np.full(len(g), int(Behaviour.UNKNOWN))
     # pedestrians
@@ -255,39 +321,77 @@ def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = No
     return np.where(wheeled, wb, out).astype(np.int64)
 
 
+def _confirmed_fast(
+    k: Kinematics, r: np.ndarray, rr: np.ndarray, t_crit: np.ndarray, config: IntentConfig,
+    ego_speed: float, ego_yaw_rate: float,
+) -> np.ndarray:
+    """Young or unsettled tracks that may raise CRITICAL at once: at least ``fast_confirm_frames``
+    old, in the corridor now (no prediction, ``critical_path_sigmas`` lateral stds further out),
+    and under the CRITICAL TTC even if closing ``motion_significance`` range-rate stds slower than
+    estimated -- a child out of an occlusion in front of the ego, not a new car ahead whose
+    speed is still unknown."""
+    old_enough = np.asarray(k.age) >= config.fast_confirm_frames
+    z = config.critical_motion_significance
+    sig = np.zeros(len(r)) if k.range_rate_sigma is None else np.asarray(k.range_rate_sigma, dtype=np.float64)
+    slow_closing = -rr - z * np.nan_to_num(sig, nan=np.inf)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ttc_late = np.where(slow_closing > 0.0, np.maximum(r, 0.0) / slow_closing, np.inf)
+    inside = in_path(k, np.zeros(len(r)), config, ego_speed, ego_yaw_rate, config.critical_path_sigmas,
+                     look_ahead=False, significance=config.critical_motion_significance)
+    return old_enough & inside & (ttc_late < t_crit)
+
+
 def assess(
-    k: Kinematics, config: IntentConfig, ego_speed: float = 0.0, ego_yaw_rate: float = 0.0
+    k: Kinematics, config: IntentConfig, ego_speed: float = 0.0, ego_yaw_rate: float = 0.0,
+    ego_accel: float = 0.0,
 ) -> Assessment:
-    """TTC, in-path flag, risk, intent label and behaviour for every object."""
+    """TTC, enhanced TTC, required deceleration, in-path flag, risk, intent label and
+    behaviour for every object (ego speed m/s, yaw rate rad/s, acceleration m/s^2)."""
     th = _threshold_table(config)
     n = len(k)
     if n == 0:
         z = np.zeros(0, dtype=np.int64)
-        return Assessment(np.zeros(0), np.zeros(0, dtype=bool), z, z.copy(), z.copy())
-    g = _GROUP_INDEX[np.clip(np.asarray(k.class_id, dtype=np.int64), 0, len(_GROUP_INDEX) - 1)]
+        return Assessment(np.zeros(0), np.zeros(0, dtype=bool), z, z.copy(), z.copy(), np.zeros(0), np.zeros(0))
+    g = class_groups(k, config)
     r = np.asarray(k.range, dtype=np.float64)
     rr = np.asarray(k.range_rate, dtype=np.float64)
     ttc = time_to_collision(r, rr)
-    path = in_path(k, ttc, config, ego_speed, ego_yaw_rate)
-    closing = rr < -config.range_rate_deadband
-    by_ttc = _ladder(ttc, th["t_crit"][g], th["t_high"][g])
+    v_o = rr + ego_speed  # the object's ground speed along x, consistent with the range rate
+    a_o = np.zeros(n) if k.accel_x is None else np.asarray(k.accel_x, dtype=np.float64)
+    ettc = enhanced_ttc(r, v_o, a_o, ego_speed, ego_accel)
+    decel = required_decel(r, v_o, a_o, ego_speed)
+    path = in_path(k, ettc, config, ego_speed, ego_yaw_rate)
+    closing = (rr < -config.range_rate_deadband) & (ettc < np.inf)  # on a collision course
+    by_ttc = _ladder(ettc, th["t_crit"][g], th["t_high"][g])
     by_dist = _ladder(np.where(r > 0, r, 0.0), th["d_crit"][g], th["d_high"][g])
     by_dist = np.where(closing, by_dist, np.minimum(by_dist, int(Risk.MEDIUM)))
-    risk = np.maximum(by_ttc, by_dist)
+    by_decel = np.where(decel >= th["a_high"][g], int(Risk.HIGH), int(Risk.SAFE))
+    by_decel = np.where(decel >= th["a_crit"][g], int(Risk.CRITICAL), by_decel)
+    risk = np.maximum(np.maximum(by_ttc, by_dist), by_decel)
     risk = np.where(path, risk, np.minimum(risk, int(Risk.MEDIUM)))
+    if config.critical_path_sigmas > 0.0 and k.lateral_sigma is not None:  # brakes need a sure path
+        sure = in_path(k, ettc, config, ego_speed, ego_yaw_rate, config.critical_path_sigmas,
+                       significance=config.critical_motion_significance)
+        risk = np.where(sure, risk, np.minimum(risk, int(Risk.HIGH)))
     risk = np.where(r < -1.0, int(Risk.SAFE), risk)
 
     label = np.where(rr < -config.range_rate_deadband, Label.APPROACHING, Label.STABLE)
     label = np.where(rr > config.range_rate_deadband, Label.RECEDING, label)
     label = np.where(risk >= Risk.HIGH, Label.DANGER, label)
+    init = np.zeros(n, dtype=bool)
     if k.age is not None:
-        label = np.where(np.asarray(k.age) < config.init_frames, Label.INITIALIZING, label)
+        init |= np.asarray(k.age) < config.init_frames
     if k.settled is not None:  # a prediction without a converged velocity (or any estimate) yet
-        label = np.where(np.asarray(k.settled, dtype=np.float64) == 1.0, label, Label.INITIALIZING)
+        init |= np.asarray(k.settled, dtype=np.float64) != 1.0
+    if k.age is not None and np.any(init):
+        init &= ~_confirmed_fast(k, r, rr, th["t_crit"][g], config, ego_speed, ego_yaw_rate)
+    label = np.where(init, Label.INITIALIZING, label)
     return Assessment(
         ttc=ttc,
         in_path=path,
         risk=risk.astype(np.int64),
         label=label.astype(np.int64),
         behaviour=behaviours(k, config, th),
+        ettc=ettc,
+        decel_req=decel,
     )

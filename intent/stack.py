@@ -82,7 +82,8 @@ class PerceptionStack:
         est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
         t3 = time.perf_counter()
         kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
-        assessment = assess(kin, self.intent_config, frame.odometry.speed, frame.odometry.yaw_rate)
+        odo = frame.odometry
+        assessment = assess(kin, self.intent_config, odo.speed, odo.yaw_rate, odo.accel)
         alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
         t4 = time.perf_counter()
         timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3,

@@ -138,7 +138,12 @@ class Estimates:
     along the motion (m/s^2, NaN unknown); yaw_rate: of the object's motion
     (rad/s, NaN unknown); ttc: time to collision (s, inf when not closing);
     range_rate_sigma: the filter's std of range_rate (m/s), which tells how far
-    the velocity can be trusted yet (a new track starts from a broad prior).
+    the velocity can be trusted yet (a new track starts from a broad prior);
+    ground_vx_sigma / ground_vy_sigma: stds of ground_vx / ground_vy (m/s);
+    lateral_sigma: std of lateral (m);
+    accel_x: the ground acceleration along the ego x axis (m/s^2; the IMM's
+    mixture, so a steady object reads ~0) and accel_x_sigma its std; height: the
+    track's height (m), its class prior refined by every box's ground contact.
     """
 
     range: np.ndarray
@@ -154,6 +159,12 @@ class Estimates:
     ttc: np.ndarray
     range_rate_sigma: np.ndarray
     settled: np.ndarray
+    ground_vx_sigma: np.ndarray
+    ground_vy_sigma: np.ndarray
+    lateral_sigma: np.ndarray
+    accel_x: np.ndarray
+    accel_x_sigma: np.ndarray
+    height: np.ndarray
 
     #: Fields of ``intent.labels.Kinematics`` this struct provides.
     KINEMATICS_FIELDS = (
@@ -168,6 +179,11 @@ class Estimates:
         "yaw_rate",
         "range_rate_sigma",
         "settled",
+        "accel_x",
+        "ground_vx_sigma",
+        "ground_vy_sigma",
+        "lateral_sigma",
+        "height",
     )
     _DECIMALS = {"yaw_rate": 4, "ttc": 3}
 
@@ -307,6 +323,9 @@ class _TrackFilter:
     updates: int = 1
     born: float = 0.0  # time of the first update (s)
     settled: bool = False  # the range rate has converged (latched)
+    outliers: int = 0  # consecutive measurements that failed the NIS gate
+    height_info: float = 0.0  # sum of inverse variances of the height evidence (1/m^2), prior included
+    height_sum: float = 0.0  # inverse-variance weighted sum of the heights (m/m^2)
     history: deque = field(default_factory=deque)  # (t, vx, vy): ground velocity, world-fixed axes
 
 
@@ -392,26 +411,32 @@ class Estimator:
         meas = self.measure(self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks))
         valid = meas.valid
         state = np.full((n, self._dim), np.nan)
-        p_xx = np.full(n, np.nan)
+        p_diag = np.full((n, self._dim), np.nan)
         p_rr = np.full(n, np.nan)
         settled = np.full(n, np.nan)
         hw = np.full(n, np.nan)
+        height = np.full(n, np.nan)
         hist: list[deque | None] = [None] * n
         to_world = _rot(self._ego_yaw)
         for i in range(n):
             tid, cls = int(tracks.track_id[i]), int(tracks.class_id[i])
             trk = self._filters.get(tid)
+            outlier = False
             if valid[i] and int(tracks.state[i]) != TrackState.LOST:
                 z0, r0 = np.array([meas.x[i], meas.lateral[i]]), meas.cov[i]
                 z, r = z0, r0
                 if trk is not None and meas.cut_bottom[i]:
                     z, r = self._cut_bottom_update(trk, meas, i)
-                if trk is None or not self._update(trk, z, r):  # a new filter starts from the box itself
+                outcome = "restart" if trk is None else self._update(trk, z, r)
+                outlier = outcome == "outlier"
+                if outcome == "restart":  # a new filter starts from the box itself
                     trk = self._new_filter(z0, r0, cls, tracks.xyxy[i], tracks.velocity_px[i], t, speed, yaw_rate)
                     self._filters[tid] = trk
+            if not outlier and valid[i] and int(tracks.state[i]) != TrackState.LOST:
                 trk.class_id, trk.last_update = cls, t
                 a, hw_i = cfg.half_width_alpha, float(meas.half_width[i])
                 trk.half_width = hw_i if np.isnan(trk.half_width) else a * hw_i + (1 - a) * trk.half_width
+                self._add_height(trk, meas, i)
                 if trk.updates >= cfg.settle_updates:
                     v_w = to_world @ trk.kf.x[2:4]
                     trk.history.append((t, v_w[0], v_w[1]))
@@ -420,7 +445,7 @@ class Estimator:
             if trk is None or not (valid[i] or int(tracks.state[i]) == TrackState.LOST):
                 continue
             state[i] = trk.kf.x
-            p_xx[i] = trk.kf.P[0, 0]
+            p_diag[i] = np.diag(trk.kf.P)
             # var(v_x + w y): range_rate = v_x - v_ego + w y, the ego's odometry taken as exact
             pm = trk.kf.P
             p_rr[i] = pm[2, 2] + yaw_rate**2 * pm[1, 1] + 2.0 * yaw_rate * pm[1, 2]
@@ -432,11 +457,27 @@ class Estimator:
                 trk.settled = bool(converged) or t - trk.born >= cfg.settle_max_s - 1e-9
             settled[i] = float(trk.settled)
             hw[i] = trk.half_width
+            height[i] = trk.height_sum / trk.height_info if trk.height_info > 0 else np.nan
             hist[i] = trk.history if trk.updates >= cfg.settle_updates else None
 
         for tid in [k for k, f in self._filters.items() if t - f.last_update > cfg.max_coast_s]:
             del self._filters[tid]
-        return self._outputs(state, p_xx, p_rr, settled, hw, hist, speed, yaw_rate)
+        return self._outputs(state, p_diag, p_rr, settled, hw, height, hist, speed, yaw_rate)
+
+    def _add_height(self, trk: _TrackFilter, meas: Measurement, i: int) -> None:
+        """Fuse this frame's height evidence into the track's height: the class prior
+        N(height, height_sigma^2) at the first update, then every box with a ground contact and a
+        top, (x_ground - m_x) * height_slope with std height_slope * sigma_ground -- the
+        ground cue only, so the height prior the range leans on does not come back as evidence."""
+        if trk.height_info == 0.0:
+            cid = np.array([trk.class_id])
+            h0, s0 = float(self.prior_of(cid, "height")[0]), float(self.prior_of(cid, "height_sigma")[0])
+            trk.height_info, trk.height_sum = 1.0 / s0**2, h0 / s0**2
+        ds, xg, sg = float(meas.height_slope[i]), float(meas.x_ground[i]), float(meas.sigma_ground[i])
+        h, sh = (xg - self.camera.mount[0]) * ds, ds * sg
+        if np.isfinite(h) and np.isfinite(sh) and h > 0.0 and sh > 0.0:
+            trk.height_info += 1.0 / sh**2
+            trk.height_sum += h / sh**2
 
     def _cut_bottom_update(self, trk: _TrackFilter, meas: Measurement, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Measurement for a running filter from a box cut at the bottom.
@@ -460,13 +501,16 @@ class Estimator:
     def _cos_heading(self, tracks: Tracks) -> np.ndarray:
         """|cos| of each track's heading vs the ego x axis: its motion direction when its
         filter has settled and its ground speed is above ``heading_min_speed``, else 1
-        (aligned with the road)."""
+        (aligned with the road); a velocity component under ``heading_min_sigmas`` of its
+        std counts as 0 (a bus's lateral noise must not turn it across the road)."""
         out = np.ones(len(tracks))
         for i, tid in enumerate(tracks.track_id):
             trk = self._filters.get(int(tid))
             if trk is None or not trk.settled:  # a velocity not yet converged says nothing of the heading
                 continue
             v = trk.kf.x[2:4]
+            sig = np.sqrt(np.maximum(np.diag(trk.kf.P)[2:4], 0.0))
+            v = np.where(np.abs(v) >= self.config.heading_min_sigmas * sig, v, 0.0)  # noise is no heading
             speed = float(np.hypot(*v))
             if np.isfinite(speed) and speed >= self.config.heading_min_speed:
                 out[i] = abs(float(v[0])) / speed
@@ -544,18 +588,26 @@ class Estimator:
                 models[trk.class_id] = self._process(dt, trk.class_id)
             trk.kf.predict(models[trk.class_id], trans)
 
-    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> bool:
-        """Kalman update; False (filter to restart) when the innovation fails the NIS gate."""
+    def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> str:
+        """Kalman update: ``ok``; ``outlier`` (skipped, the filter coasts) when the innovation
+        fails the NIS gate for fewer than ``reinit_outliers`` frames in a row -- one box of a
+        neighbour the tracker took for a frame must not restart the filter --; ``restart`` when
+        it keeps failing (the track follows another object now) or the update breaks."""
         nis = trk.kf.nis(z, r)
         if not nis <= self.config.reinit_nis:
+            trk.outliers += 1
+            if trk.outliers < self.config.reinit_outliers:
+                log.debug("measurement skipped as an outlier: NIS %.1f", nis)
+                return "outlier"
             log.debug("track filter restarted: NIS %.1f", nis)
-            return False
+            return "restart"
         try:
             trk.kf.update(z, r)
         except np.linalg.LinAlgError:
-            return False
+            return "restart"
         trk.updates += 1
-        return trk.kf.finite()
+        trk.outliers = 0
+        return "ok" if trk.kf.finite() else "restart"
 
     def _new_filter(
         self,
@@ -603,10 +655,11 @@ class Estimator:
     def _outputs(
         self,
         state: np.ndarray,
-        p_xx: np.ndarray,
+        p_diag: np.ndarray,
         p_rr: np.ndarray,
         settled: np.ndarray,
         hw: np.ndarray,
+        height: np.ndarray,
         hist: list[deque | None],
         speed: float,
         yaw_rate: float,
@@ -635,7 +688,7 @@ class Estimator:
                 yaw[i] = float(_slope_fit(tt, heading[:, None])[0])
         return Estimates(
             range=x,
-            range_sigma=np.sqrt(p_xx),
+            range_sigma=np.sqrt(p_diag[:, 0]),
             lateral=y,
             half_width=hw,
             range_rate=rr,
@@ -647,4 +700,10 @@ class Estimator:
             ttc=time_to_collision(x, rr),
             range_rate_sigma=np.sqrt(np.maximum(p_rr, 0.0)),
             settled=settled,
+            ground_vx_sigma=np.sqrt(np.maximum(p_diag[:, 2], 0.0)),
+            ground_vy_sigma=np.sqrt(np.maximum(p_diag[:, 3], 0.0)),
+            lateral_sigma=np.sqrt(np.maximum(p_diag[:, 1], 0.0)),
+            accel_x=state[:, 4],
+            accel_x_sigma=np.sqrt(np.maximum(p_diag[:, 4], 0.0)),
+            height=height,
         )

@@ -135,6 +135,9 @@ class EstimatorConfig(BaseModel):
     heading_min_speed: float = Field(
         2.0, ge=0, description="ground speed above which the motion direction gives the heading (m/s)"
     )
+    heading_min_sigmas: float = Field(
+        2.0, ge=0, description="a ground velocity component below this many stds counts as 0 for the heading"
+    )
     contact_offset_rel_sigma: float = Field(0.2, ge=0, description="std of the contact offset, relative")
     width_cue_min_cos: float = Field(
         0.985, ge=0, le=1, description="|cos| of the heading above which a vehicle counts as seen end-on (width cue)"
@@ -142,7 +145,10 @@ class EstimatorConfig(BaseModel):
 
     init_accel_sigma: float = Field(3.0, gt=0, description="std of a new 'ca' filter's accel (m/s^2)")
     max_init_speed: float = Field(40.0, gt=0, description="clip of the initial relative speed (m/s)")
-    reinit_nis: float = Field(50.0, gt=0, description="restart a filter above this NIS (2 dof)")
+    reinit_nis: float = Field(
+        9.21, gt=0, description="a measurement above this NIS (2 dof; 9.21: p = 0.01) is an outlier ...")
+    reinit_outliers: int = Field(
+        2, ge=1, description="... skipped while the filter coasts; this many in a row restart the filter")
     max_coast_s: float = Field(2.0, ge=0, description="drop a filter unseen for longer (s)")
     half_width_alpha: float = Field(0.5, gt=0, le=1, description="EMA weight of a new half-width")
     history_s: float = Field(1.0, gt=0, description="window of the accel / yaw-rate fits (s)")

@@ -144,7 +144,9 @@ class Measurement:
     bound, with ``sigma`` widened by the extent's uniform std (module docstring, step 7). The lateral as a function of the range: lateral = m_y + (x - m_x)
     ``tan_y`` + ``lateral_offset`` (``tan_y`` the bearing of the edge or ray it comes from,
     ``lateral_offset`` 0 or a half-width prior); ``sigma_bearing`` the bearing's std (rad);
-    ``var_y_extra``: lateral variance not due to x or bearing (m^2).
+    ``var_y_extra``: lateral variance not due to x or bearing (m^2). ``height_slope``:
+    s(y1) - s(y2) of a box cut neither at the top nor at the bottom (NaN otherwise), so
+    an object whose face is at x stands (x - m_x) ``height_slope`` m tall.
     """
 
     x: np.ndarray
@@ -166,6 +168,7 @@ class Measurement:
     sigma_bearing: np.ndarray
     var_y_extra: np.ndarray
     lateral_offset: np.ndarray
+    height_slope: np.ndarray
 
     @property
     def valid(self) -> np.ndarray:
@@ -384,6 +387,7 @@ class BoxRanger:
             sigma_bearing=s_bear,
             var_y_extra=extra,
             lateral_offset=np.where(np.isfinite(lat), offset, np.nan),
+            height_slope=np.where(ok & ~cut_top & ~cut_bottom & (ds > 0), ds, np.nan),
         )
 
     def _end_on_lateral(
@@ -426,7 +430,8 @@ class BoxRanger:
         for m, t_e, sgn in ((cut_left & ~cut_right & left_of, t_r, 1.0),
                             (cut_right & ~cut_left & right_of, t_l, -1.0)):  # fmt: skip
             tan, off = np.where(m, t_e, tan), np.where(m, sgn * 0.5 * W + L * t_e, off)
-            extra = np.where(m, (0.5 * sW) ** 2 + (sL * t_e) ** 2, extra)
+            # the far corner's bearing error reaches the lateral over xf + L, not xf: add the L part
+            extra = np.where(m, (0.5 * sW) ** 2 + (sL * t_e) ** 2 + (L * s_edge) ** 2, extra)
         return my + xf * tan + off, hw, tan, off, s_bear, extra
 
     def _faces(

@@ -55,6 +55,8 @@ class GroundTruth:
     label: np.ndarray  # (N,) intent.labels.Label
     behaviour: np.ndarray  # (N,) intent.labels.Behaviour
     risk: np.ndarray  # (N,) intent.labels.Risk
+    ettc: np.ndarray | None = None  # (N,) enhanced TTC (s), intent.collision
+    decel_req: np.ndarray | None = None  # (N,) the ego's required deceleration (m/s^2)
 
     def __len__(self) -> int:
         return len(self.actor_id)
@@ -88,6 +90,8 @@ class GroundTruth:
             "label": self.label.tolist(),
             "behaviour": self.behaviour.tolist(),
             "risk": self.risk.tolist(),
+            **{name: r(np.minimum(getattr(self, name), NEVER), 3)
+               for name in ("ettc", "decel_req") if getattr(self, name) is not None},
         }
 
 
@@ -258,8 +262,10 @@ def compute_ground_truth(
         ground_vy=vg[:, 1],
         accel=st.accel[idx],
         yaw_rate=st.yaw_rate[idx],
+        accel_x=st.accel[idx] * np.cos(ryaw),
+        height=size[:, 2],
     )
-    a = assess(kin, config, ego_speed=float(world.ego.speed), ego_yaw_rate=w)
+    a = assess(kin, config, ego_speed=float(world.ego.speed), ego_yaw_rate=w, ego_accel=world.odometry.accel)
     return GroundTruth(
         actor_id=ids,
         name=[ag.identity.name for ag in agents],
@@ -285,4 +291,6 @@ def compute_ground_truth(
         label=a.label,
         behaviour=a.behaviour,
         risk=a.risk,
+        ettc=a.ettc,
+        decel_req=a.decel_req,
     )

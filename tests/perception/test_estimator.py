@@ -552,3 +552,33 @@ def test_to_dict_and_kinematics_fields():
     k = Kinematics(class_id=np.array([CAR]), age=np.array([3]), **e.kinematics_fields())
     assert k.range[0] == e.range[0]
     assert set(e.kinematics_fields()) == {f.name for f in dataclasses.fields(Kinematics)} - {"class_id", "age"}
+
+
+@pytest.mark.parametrize(("size", "large"), [((1.5, 0.3, 1.2), True), ((1.0, 0.22, 0.65), False)])
+def test_an_animals_height_comes_from_its_boxes_not_its_prior(size, large):
+    """A deer (1.2 m) and a dog (0.65 m) standing 30 m ahead, the ego closing at 16.7 m/s: the
+    animal prior (0.9 +- 0.45 m) gives way to the ground contact within a second, so the two
+    land on either side of the large-animal height (0.9 m)."""
+    out = drive((30.0, 0.0), size, CLASS_ID["animal"], ego_speed=16.7, duration=1.0)
+    h = out[-1][2].height[0]
+    assert h == pytest.approx(size[2], rel=0.08)
+    assert (h >= 0.9) == large
+
+
+def test_relative_acceleration_of_a_braking_lead():
+    """Following a lead car 15 m ahead at 13.9 m/s for 2 s, then it brakes at 6 m/s^2. Its ground
+    acceleration along x reads ~0 while steady and the braking (over 3.5 m/s^2) 1.2 s after it
+    began -- the measured lag of boxes good to 5 % per edge, which the filter is tuned for --,
+    with a std that says the estimate is loose."""
+    est = Estimator(CAM)
+    acc = {}
+    for k in range(33):
+        t = k / RATE
+        tb = max(t - 2.0, 0.0)
+        gap = 15.0 - 0.5 * 6.0 * tb * tb  # the ego keeps 13.9 m/s
+        e = est.update(one_track(render(gap, 0.0, SEDAN, CAM, CAR), CAR), EgoOdometry(speed=13.9), t)
+        acc[k] = (e.accel_x[0], e.accel_x_sigma[0])
+    assert max(abs(acc[k][0]) for k in range(15, 21)) < 0.5
+    a, sig = acc[32]
+    assert a < -3.5
+    assert 1.0 < sig < 6.0

@@ -35,6 +35,15 @@ def test_aeb_avoids_what_happens_without_it(name, kmh):
     assert not on.collisions, f"{name} at {kmh} km/h with AEB collided: {on.collisions[0]}"
 
 
+def test_aeb_at_least_halves_the_impact_on_a_deer_at_60_kmh():
+    """A deer is a large animal (by its estimated height): braked for like an obstacle."""
+    speed = 60 / 3.6
+    off = Runner(variant("deer_entering", speed, aeb=False), render=False).run()
+    assert off.collisions and off.collisions[0].ego_speed == pytest.approx(speed, abs=0.3)
+    on = Runner(variant("deer_entering", speed, aeb=True), render=False).run()
+    assert not on.collisions or on.collisions[0].ego_speed <= 0.5 * speed
+
+
 def test_aeb_latency_release_and_standstill_hold():
     aeb = Aeb(AebConfig(latency=0.2, decel=6.0, release_s=0.5, hold_range=15.0))
     assert aeb.command(0.0) is None

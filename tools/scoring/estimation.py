@@ -28,6 +28,12 @@ null when its set is empty; null estimates are left out of the set):
     ttc_err_median -- median |TTC_hat - TTC| / TTC over pairs with
         0 < GT TTC < TTC_MAX_S (5 s); a predicted "never" counts as the large finite
         ``NEVER`` (1e9 s) it is written as (decoded to inf, clipped back here).
+    ettc_err_median -- the same for the enhanced (constant-acceleration) TTC of the
+        assessments (``intent.collision``) against the ground truth's, over pairs
+        with 0 < GT ETTC < TTC_MAX_S;
+    decel_err_median -- median |d_hat - d| (m/s^2) of the ego's required
+        deceleration over the same pairs (finite on both sides).
+Runs recorded before ETTC existed give null for both.
 ``n`` = scored pairs (matched, not initializing); ``n_initializing`` = matched
 pairs left out as initializing. Without tracks in the run every metric is null,
 counts 0.
@@ -48,7 +54,8 @@ RANGE_MAX_M = 50.0
 TTC_MAX_S = 5.0
 RANGE_ABS_PERCENTILE = 90.0
 
-_FIELDS = ("init", "r_hat", "r", "vf", "trunc", "v_hat", "v", "ttc_hat", "ttc")
+_FIELDS = ("init", "r_hat", "r", "vf", "trunc", "v_hat", "v", "ttc_hat", "ttc", "ettc_hat", "ettc",
+           "decel_hat", "decel")
 
 
 def match_pairs(gt: GTFrame, tracks: TrackFrame) -> dict[str, np.ndarray]:
@@ -63,7 +70,13 @@ def match_pairs(gt: GTFrame, tracks: TrackFrame) -> dict[str, np.ndarray]:
         "vf": gt.visible_fraction[g], "trunc": gt.truncation[g],
         "v_hat": trk.ground_velocity[t], "v": gt.velocity[g],
         "ttc_hat": trk.ttc[t], "ttc": gt.ttc[g],
+        "ettc_hat": _or_nan(trk.ettc, len(trk.range))[t], "ettc": _or_nan(gt.ettc, len(gt.range))[g],
+        "decel_hat": _or_nan(trk.decel_req, len(trk.range))[t], "decel": _or_nan(gt.decel_req, len(gt.range))[g],
     }
+
+
+def _or_nan(values: np.ndarray | None, n: int) -> np.ndarray:
+    return np.full(n, np.nan) if values is None else values
 
 
 def _stat(values: np.ndarray, fn) -> float | None:
@@ -74,8 +87,8 @@ def null_estimation() -> dict:
     """The section when the run has no tracks."""
     return {
         "range_rel_err_median": None, "range_abs_err_p90": None,
-        "speed_err_median": None, "ttc_err_median": None,
-        "n_range": 0, "n_speed": 0, "n_ttc": 0, "n": 0, "n_initializing": 0,
+        "speed_err_median": None, "ttc_err_median": None, "ettc_err_median": None, "decel_err_median": None,
+        "n_range": 0, "n_speed": 0, "n_ttc": 0, "n_ettc": 0, "n": 0, "n_initializing": 0,
     }
 
 
@@ -102,14 +115,22 @@ def evaluate_estimation(run: RunData) -> dict:
         ttc_hat = np.clip(p["ttc_hat"], -NEVER, NEVER)  # "never" as the finite NEVER (NaN stays)
         ttc_sel = (p["ttc"] > 0) & (p["ttc"] < TTC_MAX_S) & np.isfinite(ttc_hat)
         ttc = np.abs(ttc_hat[ttc_sel] - p["ttc"][ttc_sel]) / p["ttc"][ttc_sel]
+        ettc_hat = np.clip(p["ettc_hat"], -NEVER, NEVER)
+        ettc_sel = (p["ettc"] > 0) & (p["ettc"] < TTC_MAX_S) & np.isfinite(ettc_hat)
+        ettc = np.abs(ettc_hat[ettc_sel] - p["ettc"][ettc_sel]) / p["ettc"][ettc_sel]
+        decel = np.abs(p["decel_hat"][ettc_sel] - p["decel"][ettc_sel])
+        decel = decel[np.isfinite(decel)]
     return {
         "range_rel_err_median": _stat(rel, np.median),
         "range_abs_err_p90": _stat(abs_err, lambda x: np.percentile(x, RANGE_ABS_PERCENTILE)),
         "speed_err_median": _stat(speed, np.median),
         "ttc_err_median": _stat(ttc, np.median),
+        "ettc_err_median": _stat(ettc, np.median),
+        "decel_err_median": _stat(decel, np.median),
         "n_range": len(rel),
         "n_speed": len(speed),
         "n_ttc": len(ttc),
+        "n_ettc": len(ettc),
         "n": len(p["r"]),
         "n_initializing": n_init,
     }

@@ -51,6 +51,8 @@ class GTFrame:
     range: np.ndarray  # (N,) m, nearest point's x
     velocity: np.ndarray  # (N, 2) m/s, ground velocity in ego axes
     ttc: np.ndarray  # (N,) s, inf = never
+    ettc: np.ndarray | None = None  # (N,) s, enhanced (constant-acceleration) TTC, NaN if not recorded
+    decel_req: np.ndarray | None = None  # (N,) m/s^2, the ego's required deceleration, NaN if not recorded
 
 
 @dataclass(frozen=True)
@@ -76,9 +78,11 @@ class TrackFrame:
     ttc: np.ndarray  # (K,) s, inf = never
     reported: np.ndarray  # (K,) bool, state confirmed or lost (coasting): what the system outputs
     initializing: np.ndarray  # (K,) bool, intent label ``initializing`` (or age < init_frames)
+    ettc: np.ndarray | None = None  # (K,) s, the assessment's enhanced TTC, NaN if not recorded
+    decel_req: np.ndarray | None = None  # (K,) m/s^2, the assessment's required deceleration
 
     def __getitem__(self, index: np.ndarray) -> TrackFrame:
-        return TrackFrame(**{k: v[index] for k, v in self.__dict__.items()})
+        return TrackFrame(**{k: None if v is None else v[index] for k, v in self.__dict__.items()})
 
 
 @dataclass(frozen=True)
@@ -147,6 +151,8 @@ def _parse_gt(obj: Any, where: str) -> GTFrame:
         range=a("range"),
         velocity=a("velocity", 2),
         ttc=a("ttc"),
+        ettc=a("ettc"),
+        decel_req=a("decel_req"),
     )
 
 
@@ -202,7 +208,16 @@ def _parse_tracks(obj: Any, where: str, assessments: Any = None) -> TrackFrame |
         ttc=a("ttc"),
         reported=confirmed | np.array([s in _LOST for s in state], dtype=bool),
         initializing=_initializing(assessments, age, n),
+        ettc=_assessed(assessments, "ettc", n, where),
+        decel_req=_assessed(assessments, "decel_req", n, where),
     )
+
+
+def _assessed(assessments: Any, key: str, n: int, where: str) -> np.ndarray:
+    """The assessment field ``key`` of a frame's n track rows (NaN when not recorded)."""
+    if not isinstance(assessments, dict) or not isinstance(assessments.get(key), list):
+        return np.full(n, np.nan)
+    return _array(assessments, key, n, None, f"{where}.assessments", False)
 
 
 def _empty_tracks() -> TrackFrame:

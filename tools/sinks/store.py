@@ -441,11 +441,14 @@ class SqliteStore:
 
     @staticmethod
     def _assessment_cols(r: TickRecord) -> list[list]:
-        """label, behaviour, risk, ttc, in_path, reason of each track (``r.assessments`` row order)."""
+        """label, behaviour, risk, ttc (constant velocity), in_path, reason (with the enhanced TTC, as
+        alerts give it) of each track (``r.assessments`` row order)."""
         a, n = r.assessments, len(r.assessments)
         rng = r.estimates.range.tolist() if r.estimates is not None else [float("nan")] * n
         ttc, beh, lab, risk = a.ttc.tolist(), a.behaviour.tolist(), a.label.tolist(), a.risk.tolist()
-        reasons = [reason_text(rg, tc, b, lb, rk)[0] for rg, tc, b, lb, rk in zip(rng, ttc, beh, lab, risk, strict=True)]
+        decided = ttc if a.ettc is None else a.ettc.tolist()  # the reason gives the TTC risk decided on
+        reasons = [reason_text(rg, tc, b, lb, rk)[0]
+                   for rg, tc, b, lb, rk in zip(rng, decided, beh, lab, risk, strict=True)]
         return [
             _names(_LABELS, a.label, n), _names(_BEHAVIOURS, a.behaviour, n),
             np.asarray(a.risk, dtype=np.int64).tolist(), ttc, np.asarray(a.in_path, dtype=np.int64).tolist(),
