@@ -13,10 +13,11 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-#: The folder of the scenario catalogue (scenarios, ``suites/``, ``sweeps/``, ``generators/``).
+#: The folder of the scenario catalogue (scenarios, ``suites/``, ``sweeps/``, ``generators/``, and
+#: ``ncap/``: the Euro NCAP cases, docs/ncap.md).
 SCENARIOS = Path(str(files("lookahead.scenarios")))
 #: Sub-folders searched, in order, for a catalogue name.
-KINDS = ("", "suites", "sweeps", "generators")
+KINDS = ("", "suites", "sweeps", "generators", "ncap")
 
 
 def catalogue_names() -> list[str]:

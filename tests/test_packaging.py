@@ -41,7 +41,7 @@ def test_the_wheel_holds_one_top_level_package_with_the_model_and_scenarios(whee
     for sub in ("perception", "intent", "sim", "tools", "tools/sinks", "perception/detectors"):
         assert f"lookahead/{sub}/__init__.py" in names, sub
     for data in ("models/lookahead-det.onnx", "models/MODEL_CARD.md", "scenarios/ped_crossing_nearside.yaml",
-                 "scenarios/suites/smoke.yaml", "scenarios/sweeps/aeb_stationary_car.yaml",
+                 "scenarios/suites/smoke.yaml", "scenarios/sweeps/aeb_stationary_car.yaml", "scenarios/ncap/ccrs_100.yaml",
                  "scenarios/scenario.schema.json"):
         assert f"lookahead/{data}" in names, data
     assert not any(n.startswith("lookahead/tests/") for n in names)

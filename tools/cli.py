@@ -505,6 +505,61 @@ def sweep(
         raise typer.Exit(1)
 
 
+@app.command()
+@user_errors
+def ncap(
+    out: Annotated[Path, typer.Option("--out", help="scorecard directory (re-run to resume)")] = Path("out/ncap"),
+    detector: Annotated[str | None, typer.Option("--detector", metavar="gt|onnx",
+                                                 help="override every scenario's detector")] = None,
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames (onnx needs it)")] = False,
+    workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
+    only: Annotated[str | None, typer.Option("--only", help="test codes or case ids, comma-separated "
+                                             "(CCRs,CPNA or CPNA-25-night); default: all")] = None,
+    aeb: Annotated[str, typer.Option("--aeb", metavar="on|off|both", help="AEB variants to run")] = "both",
+    speeds: Annotated[str | None, typer.Option("--speeds", help="ego speeds to run, km/h, comma-separated "
+                                               "(default: every speed of the grids)")] = None,
+) -> None:
+    """Run the Euro NCAP AEB catalogue (scenarios/ncap) and write OUT/ncap.json and OUT/ncap.html.
+
+    Exit 1 when a run failed; cells that miss the acceptance criteria are listed, not an error.
+    """
+    from lookahead.tools.runs.ncap import parse_speeds, run_ncap
+
+    if detector is not None and detector not in ("gt", "onnx", "auto"):
+        fail(f"--detector {detector!r}: expected gt, onnx or auto")
+    if detector == "onnx" and not render:
+        fail("--detector onnx needs --render (the model runs on rendered frames)")
+    aeb = aeb.strip().lower()
+    if aeb not in ("on", "off", "both"):
+        fail(f"--aeb {aeb!r}: expected on, off or both")
+    names = [s for s in only.split(",") if s.strip()] if only else None
+    with _progress() as prog:
+        task = prog.add_task("ncap", total=None)
+
+        def announce(case, n: int) -> None:
+            prog.update(task, description=f"{case.id}: {n} variants", completed=0, total=n)
+
+        card = run_ncap(out, detector=detector, render=render, workers=workers, only=names, aeb=aeb,
+                        speeds=parse_speeds(speeds), announce=announce,
+                        progress=lambda r: prog.update(task, advance=1))
+    table = Table(title="Euro NCAP AEB scorecard")
+    for col in ("family", "points", "of", "cells"):
+        table.add_column(col, justify="left" if col == "family" else "right")
+    for fam, v in card["families"].items():
+        table.add_row(fam, number(v["points"], "{:.2f}"), f"{v['max_points']:g}", str(v["cells"]))
+    console.print(table)
+    for f in card["failures"]:
+        what = (f"FCW at TTC {number(f['fcw_ttc_s'], '{:.2f}')} s" if f["fcw_ttc_s"] is not None or
+                f["relative_impact_kmh"] is None else f"impact {f['relative_impact_kmh']:.1f} km/h")
+        console.print(f"[yellow]criterion missed[/] {f['case']} {f['speed_kmh']:g} km/h "
+                      f"aeb {'on' if f['aeb'] else 'off'}: {what}", highlight=False)
+    c = card["counts"]
+    console.print(f"ncap: {c['done']} of {c['cells']} cells done, {c['failed_runs']} failed runs, "
+                  f"{c['criteria_failed']} miss the criteria -> {out / 'ncap.html'}", highlight=False)
+    if c["failed_runs"]:
+        raise typer.Exit(1)
+
+
 @bench_app.command("sim")
 @user_errors
 def bench_sim(
