@@ -21,8 +21,7 @@ fills it from true kinematics, the estimator from its tracks; both call
   in [0, min(horizon, TTC + arrival_slack)] under constant lateral velocity.
 * Risk: per class group, from ETTC (CRITICAL < critical_ttc, HIGH < high_ttc,
   MEDIUM < 2 x high_ttc, LOW < 4 x high_ttc), range (same ladder with the
-  distance thresholds; above MEDIUM only while closing on a collision course:
-  range rate below -deadband and a finite ETTC) and the required
+  distance thresholds; above MEDIUM only while closing) and the required
   deceleration (HIGH >= high_decel, CRITICAL >= critical_decel). HIGH and
   CRITICAL need the object in path, otherwise risk is capped at MEDIUM;
   CRITICAL (the AEB's level) needs it in path even ``critical_path_sigmas``
@@ -361,7 +360,7 @@ def assess(
     ettc = enhanced_ttc(r, v_o, a_o, ego_speed, ego_accel)
     decel = required_decel(r, v_o, a_o, ego_speed)
     path = in_path(k, ettc, config, ego_speed, ego_yaw_rate)
-    closing = (rr < -config.range_rate_deadband) & (ettc < np.inf)  # on a collision course
+    closing = rr < -config.range_rate_deadband
     by_ttc = _ladder(ettc, th["t_crit"][g], th["t_high"][g])
     by_dist = _ladder(np.where(r > 0, r, 0.0), th["d_crit"][g], th["d_high"][g])
     by_dist = np.where(closing, by_dist, np.minimum(by_dist, int(Risk.MEDIUM)))
