@@ -48,6 +48,9 @@ class IntentConfig(BaseModel):
     critical_path_sigmas: float = Field(
         1.0, ge=0.0, description="CRITICAL needs the object in path even this many lateral stds further "
         "out (estimates only; 0: off)")
+    critical_rate_sigmas: float = Field(
+        0.5, ge=0.0, description="CRITICAL by TTC or required deceleration needs it even closing this many "
+        "range-rate stds slower than estimated (estimates only; 0: off)")
     range_rate_deadband: float = Field(1.0, description="|range rate| below this is 'stable' (m/s)")
     init_frames: int = Field(5, description="tracks younger than this are 'initializing' (frames)")
     fast_confirm_frames: int = Field(

@@ -28,7 +28,10 @@ fills it from true kinematics, the estimator from its tracks; both call
   lateral stds further out, with lateral motion significant at
   ``critical_motion_significance`` stds (estimates only), otherwise it is
   capped at HIGH -- braking needs more evidence than a warning: a parked car
-  whose estimate grazes the corridor's edge warns, never brakes.
+  whose estimate grazes the corridor's edge warns, never brakes. Likewise its
+  TTC (or required deceleration) must pass the CRITICAL threshold even closing
+  ``critical_rate_sigmas`` range-rate stds slower than estimated (the range
+  ladder's CRITICAL needs no rate).
 * Labels: ``initializing`` (prediction younger than init_frames, or whose
   velocity estimate has not settled yet: ``Kinematics.settled``) > ``danger``
   (risk >= HIGH, i.e. in path and TTC or closing range under the HIGH
@@ -372,6 +375,13 @@ def assess(
         sure = in_path(k, ettc, config, ego_speed, ego_yaw_rate, config.critical_path_sigmas,
                        significance=config.critical_motion_significance)
         risk = np.where(sure, risk, np.minimum(risk, int(Risk.HIGH)))
+    if config.critical_rate_sigmas > 0.0 and k.range_rate_sigma is not None:  # ... and a sure closing speed
+        slower = v_o + config.critical_rate_sigmas * np.nan_to_num(
+            np.asarray(k.range_rate_sigma, dtype=np.float64), nan=1e6)  # unknown: never sure
+        sure_ttc = enhanced_ttc(r, slower, a_o, ego_speed, ego_accel) < th["t_crit"][g]
+        sure_decel = required_decel(r, slower, a_o, ego_speed) >= th["a_crit"][g]
+        sure_dist = by_dist == int(Risk.CRITICAL)
+        risk = np.where(sure_ttc | sure_decel | sure_dist, risk, np.minimum(risk, int(Risk.HIGH)))
     risk = np.where(r < -1.0, int(Risk.SAFE), risk)
 
     label = np.where(rr < -config.range_rate_deadband, Label.APPROACHING, Label.STABLE)

@@ -185,3 +185,12 @@ def test_large_animals_are_braked_for_like_obstacles_dogs_per_the_seed(height, r
     if height is not None:
         k = _with(k, height=height)
     assert assess(k, CFG, ego_speed=10.0).risk[0] == risk
+
+
+def test_critical_needs_a_sure_closing_speed():
+    # a car 24 m ahead in path estimated closing at 13.4 +- 3.2 m/s (ETTC 1.79 s): under the
+    # vehicle's 2.0 s, but not when closing one std slower (2.35 s): a warning, not a brake
+    k = _with(kin("car", r=24.0, y=-0.5, rr=-13.4, hw=0.9), range_rate_sigma=3.2, lateral_sigma=0.1,
+              ground_vx_sigma=3.2, ground_vy_sigma=0.5)
+    assert assess(k, CFG, ego_speed=13.4).risk[0] == Risk.HIGH
+    assert assess(_with(k, range_rate_sigma=0.5), CFG, ego_speed=13.4).risk[0] == Risk.CRITICAL
