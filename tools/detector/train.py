@@ -37,6 +37,7 @@ import copy
 import json
 import logging
 import math
+import pickle
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -213,7 +214,10 @@ def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[st
 
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no training state to resume (it is written after each epoch)")
-    state = torch.load(path, map_location="cpu", weights_only=False)
+    try:  # tensors, numbers, strings and containers only: a state file cannot run code
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as exc:
+        raise ResumeError(f"{path}: not a training state this tool wrote ({str(exc).splitlines()[0]})") from None
     was, now = state["run"], _run_identity(cfg, data_dir)
     diff = [f"{k}={was.get(k)!r} (now {now[k]!r})" for k in now if was.get(k) != now[k]]
     if diff:

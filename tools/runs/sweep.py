@@ -186,6 +186,9 @@ class SweepSpec(Strict):
             both = sorted(set(a) & set(b))
             if both:
                 raise ValueError(f"{both[0]} is given in both {what}")
+        count = math.prod(len(v) for v in self.grid.values()) * (self.samples.n if self.samples else 1)
+        if count > MAX_VARIANTS:  # counted before anything is expanded
+            raise ValueError(f"the sweep expands to {count:,} variants; at most {MAX_VARIANTS:,} are allowed")
         params = self.parameters()
         for name in [*(self.report.x or []), *([self.report.split] if self.report.split else [])]:
             if name not in params:
@@ -194,6 +197,10 @@ class SweepSpec(Strict):
 
     def parameters(self) -> list[str]:
         return [*self.grid, *(self.samples.params if self.samples else {})]
+
+
+#: The most variants one sweep file may expand to (grid points x samples), checked before expanding.
+MAX_VARIANTS = 10_000
 
 
 @dataclass

@@ -558,3 +558,20 @@ def test_a_run_trains_on_several_datasets_at_once_and_names_them(tiny_dataset, t
     assert meta["train_data"] == f"{tiny_dataset},{second}"
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), str(tmp_path / "none"), "--out", str(out)])
     assert res.exit_code == 2 and "none" in res.output and "Traceback" not in res.output
+
+
+class _Planted:
+    """Stands in for a pickled object that would run code when loaded."""
+
+    def __reduce__(self):
+        return (print, ("code from a data file ran",))
+
+
+def test_resume_never_unpickles_code(tiny_dataset, tmp_path, capsys):
+    from lookahead.tools.detector.train import ResumeError, state_path
+
+    out = tmp_path / "planted.onnx"
+    torch.save({"run": {}, "epoch": 0, "payload": _Planted()}, state_path(out))
+    with pytest.raises(ResumeError, match=r"planted\.state\.pt: not a training state this tool wrote"):
+        train(tiny_dataset, out, TrainConfig(epochs=2, batch=2, warmup_steps=1), resume=True)
+    assert "code from a data file ran" not in capsys.readouterr().out

@@ -268,3 +268,14 @@ def test_a_sweep_resumed_with_another_aeb_switch_reruns_instead_of_mixing(tmp_pa
     assert off["aeb"] == "off" and off["counts"]["ran"] == 2 and off["counts"]["done"] == 2
     assert {json.loads((out / v["dir"] / "run.json").read_text())["scenario"]["ego"]["aeb"]
             for v in off["variants"].values()} == {False}
+
+
+def test_a_sweep_too_large_to_run_is_refused_before_expanding(tmp_path):
+    """10 parameters x 10 values (10^10 variants) are counted, not materialised: one error."""
+    from lookahead.tools.runs.sweep import MAX_VARIANTS, SweepError, load_sweep
+
+    grid = "\n".join(f"  seed_{i}: [{', '.join(str(v) for v in range(10))}]" for i in range(10))
+    f = tmp_path / "huge.yaml"
+    f.write_text(f"scenario: {ROOT / 'scenarios' / 'stationary_car.yaml'}\ngrid:\n{grid}\n")
+    with pytest.raises(SweepError, match=f"10,000,000,000 variants; at most {MAX_VARIANTS:,}"):
+        load_sweep(f)
