@@ -323,24 +323,29 @@ def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = No
     return np.where(wheeled, wb, out).astype(np.int64)
 
 
+def _slower(v_o: np.ndarray, k: Kinematics, z: float) -> np.ndarray:
+    """The object's ground speed along x raised by ``z`` range-rate stds: the ego closing that
+    much more slowly than estimated (an unknown std: as if never closing)."""
+    if k.range_rate_sigma is None:
+        return v_o
+    return v_o + z * np.nan_to_num(np.asarray(k.range_rate_sigma, dtype=np.float64), nan=1e6)
+
+
 def _confirmed_fast(
-    k: Kinematics, r: np.ndarray, rr: np.ndarray, t_crit: np.ndarray, config: IntentConfig,
-    ego_speed: float, ego_yaw_rate: float,
+    k: Kinematics, r: np.ndarray, v_o: np.ndarray, a_o: np.ndarray, t_crit: np.ndarray,
+    config: IntentConfig, ego_speed: float, ego_yaw_rate: float, ego_accel: float,
 ) -> np.ndarray:
     """Young or unsettled tracks that may raise CRITICAL at once: at least ``fast_confirm_frames``
     old, in the corridor now (no prediction, ``critical_path_sigmas`` lateral stds further out),
-    and under the CRITICAL TTC even if closing ``motion_significance`` range-rate stds slower than
-    estimated -- a child out of an occlusion in front of the ego, not a new car ahead whose
-    speed is still unknown."""
+    and under the CRITICAL TTC even if closing ``critical_motion_significance`` range-rate stds
+    slower than estimated -- a child out of an occlusion in front of the ego, not a new car ahead
+    whose speed is still unknown."""
     old_enough = np.asarray(k.age) >= config.fast_confirm_frames
     z = config.critical_motion_significance
-    sig = np.zeros(len(r)) if k.range_rate_sigma is None else np.asarray(k.range_rate_sigma, dtype=np.float64)
-    slow_closing = -rr - z * np.nan_to_num(sig, nan=np.inf)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ttc_late = np.where(slow_closing > 0.0, np.maximum(r, 0.0) / slow_closing, np.inf)
+    late = enhanced_ttc(r, _slower(v_o, k, z), a_o, ego_speed, ego_accel) < t_crit
     inside = in_path(k, np.zeros(len(r)), config, ego_speed, ego_yaw_rate, config.critical_path_sigmas,
-                     look_ahead=False, significance=config.critical_motion_significance)
-    return old_enough & inside & (ttc_late < t_crit)
+                     look_ahead=False, significance=z)
+    return old_enough & inside & late
 
 
 def assess(
@@ -376,8 +381,7 @@ def assess(
                        significance=config.critical_motion_significance)
         risk = np.where(sure, risk, np.minimum(risk, int(Risk.HIGH)))
     if config.critical_rate_sigmas > 0.0 and k.range_rate_sigma is not None:  # ... and a sure closing speed
-        slower = v_o + config.critical_rate_sigmas * np.nan_to_num(
-            np.asarray(k.range_rate_sigma, dtype=np.float64), nan=1e6)  # unknown: never sure
+        slower = _slower(v_o, k, config.critical_rate_sigmas)
         sure_ttc = enhanced_ttc(r, slower, a_o, ego_speed, ego_accel) < th["t_crit"][g]
         sure_decel = required_decel(r, slower, a_o, ego_speed) >= th["a_crit"][g]
         sure_dist = by_dist == int(Risk.CRITICAL)
@@ -393,7 +397,7 @@ def assess(
     if k.settled is not None:  # a prediction without a converged velocity (or any estimate) yet
         init |= np.asarray(k.settled, dtype=np.float64) != 1.0
     if k.age is not None and np.any(init):
-        init &= ~_confirmed_fast(k, r, rr, th["t_crit"][g], config, ego_speed, ego_yaw_rate)
+        init &= ~_confirmed_fast(k, r, v_o, a_o, th["t_crit"][g], config, ego_speed, ego_yaw_rate, ego_accel)
     label = np.where(init, Label.INITIALIZING, label)
     return Assessment(
         ttc=ttc,
