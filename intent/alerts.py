@@ -38,7 +38,7 @@ BEHAVIOUR_NAMES_ZH = {
 class AlertConfig(BaseModel):
     """Debounce and hysteresis, in camera frames."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     on_frames_high: int = Field(2, ge=1, description="frames at >= HIGH before a forward-collision warning")
     on_frames_critical: int = Field(1, ge=1, description="frames at CRITICAL before a critical alert")
     off_frames: int = Field(3, ge=1, description="frames below the active level before it falls back")

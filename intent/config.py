@@ -15,7 +15,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 
 class RiskThresholds(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     high_distance: float = Field(description="m")
     critical_distance: float = Field(description="m")
     high_ttc: float = Field(description="s")
@@ -28,7 +28,7 @@ class RiskThresholds(BaseModel):
 
 
 class BehaviourThresholds(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     still_speed: float = Field(0.3, description="below this ground speed: standing/stopped/stationary (m/s)")
     fast_speed: float = Field(2.5, description="pedestrian/animal running, non-motor/vehicle speeding above (m/s)")
     cross_speed: float = Field(0.5, description="lateral ground speed that counts as crossing/entering (m/s)")
@@ -40,7 +40,7 @@ class BehaviourThresholds(BaseModel):
 class IntentConfig(BaseModel):
     """Thresholds shared by ground truth and predictions (units: m, s, m/s, rad)."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     ego_half_width: float = Field(0.925, description="half the ego's width (m)")
     corridor_margin: float = Field(0.5, description="added to each side of the ego corridor (m)")
     horizon: float = Field(3.0, description="in-path prediction horizon (s)")

@@ -89,7 +89,7 @@ EstimatorOverrides = Annotated[dict[str, Any], Overrides(_check_estimator, Estim
 
 
 class DetectorSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     kind: Literal["auto", "gt", "onnx"] = Field(
         "auto", description="auto: onnx (the shipped model) when rendering, else gt"
     )
@@ -112,7 +112,7 @@ class DetectorSpec(BaseModel):
 
 
 class PerceptionSpec(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     detector: DetectorSpec = Field(default_factory=DetectorSpec)
     tracker: TrackerOverrides = Field(default_factory=dict, description="perception.tracker.TrackerConfig overrides")
     estimator: EstimatorOverrides = Field(

@@ -25,7 +25,7 @@ from lookahead.perception.detections import CLASSES
 class ClassPrior(BaseModel):
     """Size and motion prior of one class (m, m/s^2). Width = y extent seen from behind/front."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     height: float = Field(gt=0, description="mean object height (m)")
     height_sigma: float = Field(gt=0, description="std of the height (m)")
     width: float = Field(gt=0, description="mean width (m)")
@@ -98,7 +98,7 @@ class EstimatorConfig(BaseModel):
     (5-60 m; ``tests/perception/test_estimator.py``).
     """
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     priors: dict[str, ClassPrior] = Field(
         default_factory=_default_priors, description="per class name (perception.detections.CLASSES)"
     )

@@ -19,6 +19,17 @@ import numpy as np
 from lookahead.perception.detections import Detections
 
 _MIN_COLS, _MAX_COLS = 6, 10
+#: Largest frame number read or iterated (an hour at 25 fps; MOT sequences have a few thousand).
+#: Scoring and tracking walk every frame up to the last one (0.4 GB and ~10 s at this bound),
+#: so a bigger one would only ever mean a broken file asking for gigabytes.
+MAX_FRAME = 100_000
+#: Largest magnitude of an id, and of any other value of a row (px, scores, world coordinates).
+MAX_ID = 10**9
+MAX_VALUE = 1e9
+
+
+class MotFileError(ValueError):
+    """A MOT file that cannot be read: one line naming the file and line."""
 
 
 @dataclass
@@ -111,14 +122,19 @@ def read_mot(path: str | Path) -> MotRecords:
     """Read a MOT file (det.txt, gt.txt or tracker output).
 
     Blank lines and lines starting with ``#`` are skipped. Raises ``FileNotFoundError``
-    if the file is missing and ``ValueError`` naming the file and line for a
-    malformed row (wrong column count, non-numeric or non-finite value,
-    non-integer or < 1 frame, non-integer id).
+    if the file is missing and ``MotFileError`` (a ``ValueError``) naming the file and line
+    for a malformed row (not text, wrong column count, non-numeric or non-finite value,
+    non-integer frame or one outside 1..``MAX_FRAME``, non-integer id or one beyond
+    ``MAX_ID``, a value beyond ``MAX_VALUE``).
     """
     path = Path(path)
     rows: list[list[float]] = []
-    with path.open("r", encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
+    with path.open("rb") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            try:
+                line = raw.decode("utf-8")
+            except UnicodeDecodeError:
+                raise MotFileError(f"{path}:{lineno}: not UTF-8 text (a binary file?)") from None
             text = line.strip()
             if not text or text.startswith("#"):
                 continue
@@ -131,22 +147,27 @@ def read_mot(path: str | Path) -> MotRecords:
 def _parse_row(text: str, path: Path, lineno: int) -> list[float]:
     parts = [p.strip() for p in text.split(",")]
     where = f"{path}:{lineno}"
+    shown = text if len(text) <= 80 else text[:77] + "..."
     if not (_MIN_COLS <= len(parts) <= _MAX_COLS):
-        raise ValueError(
+        raise MotFileError(
             f"{where}: expected 6 to 10 comma-separated values "
-            f"(frame,id,x,y,w,h,conf,x,y,z), got {len(parts)}: {text!r}"
+            f"(frame,id,x,y,w,h,conf,x,y,z), got {len(parts)}: {shown!r}"
         )
     try:
         values = [float(p) for p in parts]
     except ValueError:
-        raise ValueError(f"{where}: non-numeric value in {text!r}") from None
+        raise MotFileError(f"{where}: non-numeric value in {shown!r}") from None
     if not all(np.isfinite(values)):
-        raise ValueError(f"{where}: non-finite value in {text!r}")
+        raise MotFileError(f"{where}: non-finite value in {shown!r}")
     frame, track_id = values[0], values[1]
-    if frame != int(frame) or frame < 1:
-        raise ValueError(f"{where}: frame must be an integer >= 1 (1-based), got {parts[0]!r}")
-    if track_id != int(track_id):
-        raise ValueError(f"{where}: id must be an integer, got {parts[1]!r}")
+    if frame != int(frame) or not 1 <= frame <= MAX_FRAME:
+        raise MotFileError(f"{where}: frame must be an integer >= 1 and <= {MAX_FRAME} (1-based), got {parts[0]!r:.40}")
+    if track_id != int(track_id) or abs(track_id) > MAX_ID:
+        raise MotFileError(f"{where}: id must be an integer within +-{MAX_ID}, got {parts[1]!r:.40}")
+    if any(abs(v) > MAX_VALUE for v in values[2:]):
+        raise MotFileError(f"{where}: a value beyond +-{MAX_VALUE:g} in {shown!r}")
+    if values[4] < 0 or values[5] < 0:
+        raise MotFileError(f"{where}: width and height must be >= 0, got {parts[4]!r:.20} {parts[5]!r:.20}")
     if len(values) == _MIN_COLS:
         values.append(1.0)  # conf
     return values + [-1.0] * (_MAX_COLS - len(values))
@@ -173,9 +194,12 @@ def iter_frames(
 ) -> Iterator[tuple[int, MotRecords]]:
     """Yield ``(frame, rows)`` for every frame 1..num_frames, empty frames included.
 
-    ``num_frames`` defaults to the last frame present in ``records``.
+    ``num_frames`` defaults to the last frame present in ``records``; more than ``MAX_FRAME``
+    (e.g. a seqinfo.ini's seqLength) is a ``ValueError``, raised before anything is allocated.
     """
     n = records.num_frames if num_frames is None else int(num_frames)
+    if n > MAX_FRAME:
+        raise ValueError(f"{n} frames: more than {MAX_FRAME} (a broken sequence length?)")
     order = np.argsort(records.frame, kind="stable")
     sorted_frames = records.frame[order]
     starts = np.searchsorted(sorted_frames, np.arange(1, n + 2))

@@ -280,7 +280,7 @@ class GateConfig(BaseModel):
 class PreprocessConfig(BaseModel):
     """The preprocessing chain of a camera; the default (empty chain) does nothing."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     chain: list[OpStep] = Field(default_factory=list, description="operators applied in order")
     gate: GateConfig | None = Field(None, description="low-contrast gate; absent = always run the chain")

@@ -112,7 +112,7 @@ class TrackerConfig(BaseModel):
     """Tracker parameters (scores unitless, sizes in px; time buffers in seconds, converted
     with the frame rate). Bounds are the fields' constraints; ``low_score <= high_score``."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     high_score: float = Field(0.45, description="detections at or above this score enter stage-1 association")
     low_score: float = Field(
         0.1, description="detections below this score are ignored; those in [low_score, high_score) enter stage 2"

@@ -35,7 +35,7 @@ AebState = Literal["idle", "braking", "holding"]
 
 
 class AebConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     latency: float = Field(0.2, ge=0.0, le=2.0, description="s from decision to braking")
     decel: float = Field(6.0, gt=0.0, le=12.0, description="braking deceleration (m/s^2)")
     release_s: float = Field(

@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 
 class DriverConfig(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     reaction_s: float = Field(
         1.2, ge=0.0, le=10.0, description="s from the first in-path forward-collision warning to braking")
     decel: float = Field(4.0, gt=0.0, le=12.0, description="the driver's braking deceleration (m/s^2)")

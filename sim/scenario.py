@@ -36,17 +36,31 @@ from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, Percepti
     TrackerOverrides,
 )
 from lookahead.perception.detections import CLASSES
+from lookahead.perception.safe_yaml import YamlError, first_non_finite, load_yaml, read_yaml_text
 from lookahead.sim.aeb import AebConfig
 from lookahead.sim.driver import DriverConfig
 from lookahead.sim.shapes import SUBTYPES
 
 ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
 
-Pos = Annotated[float, Field(ge=0)]
+# Physical bounds of a scenario's numbers (no NaN or infinity anywhere: ``Strict`` refuses them).
+MAX_ROAD_M = 20_000.0  # the longest road (m); longitudinal positions stay within it
+MAX_LATERAL_M = 100.0  # lateral positions (m) from the ego's lane: the widest road with sidewalks and more
+MAX_SPEED = 60.0  # m/s (216 km/h)
+MAX_TIME_S = 3600.0  # s
+MAX_HEADING_DEG = 720.0
+MAX_SEED = 2**32 - 1  # numpy's legacy seeds and highway-env's take 32 bits
+
+Seconds = Annotated[float, Field(ge=0.0, le=MAX_TIME_S)]
+Speed = Annotated[float, Field(ge=0.0, le=MAX_SPEED)]
+Longitudinal = Annotated[float, Field(ge=-MAX_ROAD_M, le=MAX_ROAD_M)]
+Lateral = Annotated[float, Field(ge=-MAX_LATERAL_M, le=MAX_LATERAL_M)]
+Heading = Annotated[float, Field(ge=-MAX_HEADING_DEG, le=MAX_HEADING_DEG)]
+Lane = Annotated[int, Field(ge=0, le=5)]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 # --- overrides of the intent config ------------------------------------------------------------
@@ -85,19 +99,26 @@ class TrafficSpec(Strict):
     density: float = Field(
         1.0, ge=0.0, le=5.0, description="highway-env vehicles_density; 0 = no traffic"
     )
-    speed: tuple[float, float] | None = Field(
-        None, description="initial speed range (m/s); default 70-80 % of the speed limit"
+    speed: tuple[Speed, Speed] | None = Field(
+        None, description="initial speed range [low, high] (m/s); default 70-80 % of the speed limit"
     )
     lane_change: bool = True
 
+    @field_validator("speed")
+    @classmethod
+    def _ordered(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and v[0] > v[1]:
+            raise ValueError(f"expected [low, high] with low <= high, got {list(v)}")
+        return v
+
 
 class EgoSpec(Strict):
-    lane: int = Field(1, ge=0)
-    s: float = Field(50.0, ge=0.0, description="start position along the road (m)")
+    lane: Lane = 1
+    s: float = Field(50.0, ge=0.0, le=MAX_ROAD_M, description="start position along the road (m)")
     speed: float = Field(11.1, ge=0.0, le=60.0, description="initial speed (m/s)")
     target_speed: float | None = Field(None, ge=0.0, le=60.0, description="cruise set speed (m/s)")
     controller: Literal["cruise", "idm", "profile"] = "cruise"
-    profile: list[tuple[Pos, Pos]] = Field(
+    profile: list[tuple[Seconds, Speed]] = Field(
         default_factory=list, description="[[t s, speed m/s], ...] for controller: profile"
     )
     aeb: bool | AebConfig = Field(
@@ -149,7 +170,7 @@ class CameraSpec(Strict):
     width: int = Field(640, ge=64, le=4096)
     height: int = Field(360, ge=48, le=4096)
     fov_h: float = Field(90.0, gt=10.0, lt=170.0, description="horizontal field of view (deg)")
-    rate: float = Field(10.0, gt=0.0, le=120.0, description="frames per second")
+    rate: float = Field(10.0, ge=1.0, le=120.0, description="frames per second")
     mount: MountSpec = Field(default_factory=MountSpec)
     renderer: Literal["auto", "egl", "tiny"] = "auto"
 
@@ -229,11 +250,11 @@ class WeatherSpec(Strict):
 
 
 class StartSpec(Strict):
-    x: float | None = Field(None, description="ego-relative longitudinal (m) at t=0")
-    y: float | None = Field(None, description="ego-relative lateral (m, left +) at t=0")
-    lane: int | None = Field(None, ge=0)
-    s: float | None = Field(None, description="ahead of the ego along the road (m) at t=0")
-    offset: float = Field(0.0, description="lateral offset within the lane (m, left +)")
+    x: Longitudinal | None = Field(None, description="ego-relative longitudinal (m) at t=0")
+    y: Lateral | None = Field(None, description="ego-relative lateral (m, left +) at t=0")
+    lane: Lane | None = None
+    s: Longitudinal | None = Field(None, description="ahead of the ego along the road (m) at t=0")
+    offset: float = Field(0.0, ge=-10.0, le=10.0, description="lateral offset within the lane (m, left +)")
     ref: Literal["centre", "rear", "front", "nearest"] = Field(
         "centre",
         description="which point of the actor's footprint the position is: centre (default), rear / front"
@@ -267,37 +288,37 @@ class StartSpec(Strict):
 
 class ActorCondition(Strict):
     id: str
-    speed_gt: float | None = None
-    speed_lt: float | None = None
-    range_lt: float | None = Field(None, description="that actor's range from the ego < m")
+    speed_gt: Speed | None = None
+    speed_lt: Speed | None = None
+    range_lt: float | None = Field(None, gt=0.0, le=MAX_ROAD_M, description="that actor's range from the ego < m")
     moving: bool | None = None
 
 
 class TriggerSpec(Strict):
     """All given conditions must hold (AND)."""
 
-    t: float | None = Field(None, ge=0.0, description="scenario time >= s")
-    ego_range_lt: float | None = Field(None, gt=0.0, description="range from the ego's front < m")
-    ttc_lt: float | None = Field(None, gt=0.0, description="time to collision with the ego < s")
+    t: Seconds | None = Field(None, description="scenario time >= s")
+    ego_range_lt: float | None = Field(None, gt=0.0, le=MAX_ROAD_M, description="range from the ego's front < m")
+    ttc_lt: float | None = Field(None, gt=0.0, le=100.0, description="time to collision with the ego < s")
     actor: ActorCondition | None = None
 
 
 class ActionSpec(Strict):
     speed: float | None = Field(None, ge=0.0, le=60.0, description="target speed (m/s)")
     accel: float | None = Field(None, gt=0.0, le=15.0, description="|accel| to reach it (m/s^2)")
-    heading: float | None = Field(None, description="target heading (deg, world; 0 = along the road)")
+    heading: Heading | None = Field(None, description="target heading (deg, world; 0 = along the road)")
     turn_rate: float | None = Field(None, gt=0.0, le=720.0, description="deg/s")
-    waypoints: list[tuple[float, float]] | None = Field(
+    waypoints: list[tuple[Longitudinal, Lateral]] | None = Field(
         None, description="[[x, y], ...] ego-relative at t=0 (m), followed in order"
     )
-    lane: int | None = Field(None, ge=0, description="change to this lane")
-    lateral: float | None = Field(None, description="move to this ego-relative-at-t0 y (m)")
+    lane: Lane | None = Field(None, description="change to this lane")
+    lateral: Lateral | None = Field(None, description="move to this ego-relative-at-t0 y (m)")
     stop: bool | None = None
 
 
 class StepSpec(Strict):
     when: TriggerSpec = Field(default_factory=TriggerSpec)
-    delay: float = Field(0.0, ge=0.0, description="s after the trigger")
+    delay: Seconds = Field(0.0, description="s after the trigger")
     do: ActionSpec
 
 
@@ -306,7 +327,7 @@ class ActorSpec(Strict):
     type: Literal[ACTOR_TYPES]  # type: ignore[valid-type]
     subtype: str | None = None
     start: StartSpec
-    heading: float = Field(0.0, description="deg, world; 0 = along the road, 90 = to the left")
+    heading: Heading = Field(0.0, description="deg, world; 0 = along the road, 90 = to the left")
     speed: float = Field(0.0, ge=0.0, le=60.0, description="initial speed (m/s)")
     script: list[StepSpec] = Field(default_factory=list)
 
@@ -357,7 +378,7 @@ class NoAlertExpect(_Given):
 
 class AlertExpect(NoAlertExpect):
     before_ttc: float | None = Field(
-        None, gt=0.0, description="the first such alert comes while the true TTC is still >= s"
+        None, gt=0.0, le=100.0, description="the first such alert comes while the true TTC is still >= s"
     )
 
 
@@ -373,6 +394,8 @@ class MetricExpect(_Given):
     def _bound(self) -> MetricExpect:
         if self.min is None and self.max is None:
             raise ValueError("give min and/or max")
+        if self.min is not None and self.max is not None and self.min > self.max:
+            raise ValueError(f"min {self.min:g} is above max {self.max:g}")
         return self
 
 
@@ -386,7 +409,7 @@ class Expectation(_Given):
     )
     collision: bool | None = Field(None, description="whether the ego collides", json_schema_extra=_one_of)
     max_impact_speed: float | None = Field(
-        None, ge=0.0, description="impact speed <= m/s (0 without a collision)", json_schema_extra=_one_of
+        None, ge=0.0, le=100.0, description="impact speed <= m/s (0 without a collision)", json_schema_extra=_one_of
     )
     danger_warned: Literal[True] | None = Field(
         None, description="every danger event is warned (danger.missed == 0)", json_schema_extra=_one_of
@@ -414,9 +437,9 @@ class Scenario(Strict):
 
     name: str = Field(min_length=1)
     description: str = ""
-    seed: int = Field(0, ge=0)
-    duration: float = Field(10.0, gt=0.0, le=600.0, description="s")
-    rate: float = Field(20.0, gt=0.0, le=200.0, description="simulation ticks per second")
+    seed: int = Field(0, ge=0, le=MAX_SEED)
+    duration: float = Field(10.0, ge=0.1, le=600.0, description="s")
+    rate: float = Field(20.0, ge=1.0, le=200.0, description="simulation ticks per second")
     end_on_collision: bool = True
     road: RoadSpec = Field(default_factory=RoadSpec)
     traffic: TrafficSpec = Field(default_factory=TrafficSpec)
@@ -443,7 +466,17 @@ class Scenario(Strict):
             raise ValueError(f"ego.lane {self.ego.lane} is outside the road's {self.road.lanes} lanes")
         if self.camera.rate > self.rate:
             raise ValueError(f"camera.rate {self.camera.rate} exceeds the simulation rate {self.rate}")
-        for a in self.actors:
+        if self.duration * self.camera.rate < 1.0:
+            raise _error_at(("duration",), f"shorter than one camera frame (1/{self.camera.rate:g} s)", self.duration)
+        if self.ego.s > self.road.length:
+            raise _error_at(("ego", "s"), f"beyond the road's end at {self.road.length:g} m", self.ego.s)
+        for i, a in enumerate(self.actors):
+            along = a.start.s if a.start.s is not None else a.start.x
+            if along is not None and not 0.0 <= self.ego.s + along <= self.road.length:
+                raise _error_at(
+                    ("actors", i, "start", "s" if a.start.s is not None else "x"),
+                    f"places the actor {self.ego.s + along:g} m along a road of {self.road.length:g} m", along,
+                )
             lanes = [a.start.lane] + [s.do.lane for s in a.script]
             bad = [ln for ln in lanes if ln is not None and ln >= self.road.lanes]
             if bad:
@@ -520,11 +553,15 @@ def _node_line(node: yaml.Node | None, loc: tuple) -> int | None:
     return line
 
 
+def field_path(loc: tuple) -> str:
+    """A location as a field path: ``actors[0].start.x``."""
+    return ".".join(str(x) if not isinstance(x, int) else f"[{x}]" for x in loc).replace(".[", "[")
+
+
 def format_validation(path: str, err: ValidationError, root: yaml.Node | None) -> str:
     """One line for a validation error: ``file:line: field.path: message`` (line when ``root`` is given)."""
     first = err.errors()[0]
     loc = tuple(x for x in first["loc"] if not (isinstance(x, str) and x.startswith("function-")))
-    field_path = ".".join(str(x) if not isinstance(x, int) else f"[{x}]" for x in loc).replace(".[", "[")
     line = _node_line(root, loc) if loc else None
     msg = first["msg"].removeprefix("Value error, ")
     where = f"{path}:{line}" if line else path
@@ -535,7 +572,7 @@ def format_validation(path: str, err: ValidationError, root: yaml.Node | None) -
         first["input"], dict | list
     ):
         msg += f", got {first['input']!r}"
-    return f"{where}: {field_path or '(top level)'}: {msg}{more}"
+    return f"{where}: {field_path(loc) or '(top level)'}: {msg}{more}"
 
 
 def parse_yaml_model(
@@ -545,15 +582,16 @@ def parse_yaml_model(
     naming ``path:line`` and the field when the YAML or a value is wrong."""
     err = error or ScenarioError
     try:
-        root = yaml.compose(text)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark else path
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise err(f"{where}: malformed YAML: {problem}") from None
+        data, root = load_yaml(text, path)
+    except YamlError as e:
+        raise err(str(e)) from None
     if not isinstance(data, dict):
         raise err(f"{path}: expected a mapping of {what} fields, got {type(data).__name__}")
+    bad = first_non_finite(data)
+    if bad is not None:
+        loc, value = bad
+        line = _node_line(root, loc)
+        raise err(f"{path}{f':{line}' if line else ''}: {field_path(loc)}: expected a finite number, got {value!r}")
     try:
         return model.model_validate(data)
     except ValidationError as e:
@@ -567,14 +605,10 @@ def parse_scenario(text: str, path: str = "<string>") -> Scenario:
 
 def read_text_file(path: str | Path, what: str = "scenario", error: type[ScenarioError] | None = None) -> str:
     """The UTF-8 text of ``path``; a one-line ``error`` (``ScenarioError``) when missing or unreadable."""
-    err = error or ScenarioError
-    p = Path(path)
-    if not p.is_file():
-        raise err(f"{p}: no such {what} file")
     try:
-        return p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise err(f"{p}: cannot read: {e}") from None
+        return read_yaml_text(path, what)
+    except YamlError as e:
+        raise (error or ScenarioError)(str(e)) from None
 
 
 def load_scenario(path: str | Path) -> Scenario:

@@ -9,16 +9,55 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import re
 import sys
 from pathlib import Path
 from typing import Annotated, NoReturn
 
 import typer
+import typer.core
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, help="lookahead: forward-camera perception testbench")
+try:  # typer >= 0.2x carries its own click
+    from typer._click import exceptions as click_errors
+except ImportError:  # pragma: no cover - older typer on click
+    from click import exceptions as click_errors
+
+
+class OneLineErrors(typer.core.TyperGroup):
+    """The command group whose option / argument mistakes (click's usage errors) end as one ``error:``
+    line on stderr and exit code 2 instead of click's usage box; ``--help``, the help shown without
+    arguments, ``typer.Exit`` codes and exit 0 on success are kept. The console script and
+    ``CliRunner().invoke(app, ...)`` both come through here."""
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True, **extra):
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        try:
+            rv = super().main(args, prog_name, complete_var, standalone_mode=False, **extra)
+        except click_errors.NoArgsIsHelpError as e:  # no arguments: the help (typer printed it), as before
+            sys.exit(e.exit_code)
+        except click_errors.ClickException as e:  # UsageError, BadParameter, NoSuchOption, MissingParameter
+            _error_line(e.format_message())
+            sys.exit(2)
+        except typer.Abort:
+            _error_line("aborted")
+            sys.exit(1)
+        sys.exit(rv if isinstance(rv, int) and not isinstance(rv, bool) else 0)
+
+
+def _error_line(message: str) -> None:
+    """``error: message`` on stderr, on one line (markup in the message printed as it is)."""
+    from rich.markup import escape
+
+    text = re.sub(r"\s*[\r\n]+\s*", " ", str(message)).strip()  # line breaks only: a path keeps its spaces
+    console.print(f"[bold red]error:[/] {escape(text)}", markup=True, highlight=False, soft_wrap=True)
+
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, cls=OneLineErrors,
+                  help="lookahead: forward-camera perception testbench")
 bench_app = typer.Typer(no_args_is_help=True, help="Benchmarks; each writes a JSON file.")
 app.add_typer(bench_app, name="bench")
 console = Console(stderr=True)
@@ -64,7 +103,7 @@ def number(value: object, spec: str) -> str:
 
 def fail(message: str) -> NoReturn:
     """One ``error:`` line on stderr (no traceback) and exit code 2: how a user's mistake ends."""
-    console.print(f"[bold red]error:[/] {message}", markup=True, highlight=False, soft_wrap=True)
+    _error_line(message)
     raise typer.Exit(2)
 
 
@@ -80,13 +119,16 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from lookahead.perception.config import SettingsError  # ScenarioError is one
     from lookahead.perception.detectors.onnx_detector import ModelError
     from lookahead.tools.detector.arch import ArchitectureError
+    from lookahead.tools.detector.data import DatasetError
     from lookahead.tools.detector.train import ResumeError
     from lookahead.tools.runs.regress import BaselineError
-    from lookahead.tools.sinks.rundir import OutputError
+    from lookahead.tools.runs.replay import ReplayError
+    from lookahead.tools.sinks.rundir import OutputError, RunDirError
     from lookahead.tools.sinks.store import StoreError
 
     return (SettingsError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
-            FileNotFoundError, PermissionError, NotADirectoryError, IsADirectoryError)
+            DatasetError, ReplayError, RunDirError,
+            FileNotFoundError, FileExistsError, PermissionError, NotADirectoryError, IsADirectoryError)
 
 
 def user_errors(fn):
@@ -99,22 +141,27 @@ def user_errors(fn):
         except typer.Exit:
             raise
         except _user_errors() as e:
-            fail(str(e))
+            fail(describe(e))
 
     return wrapper
 
 
 def yaml_option(name: str, text: str):
-    """An option's YAML value; malformed YAML is one line naming the option and column, exit 2."""
-    import yaml
+    """An option's YAML value, read with the limits of ``perception.safe_yaml``; malformed or
+    hostile YAML is one line naming the option (and column), exit 2."""
+    from lookahead.perception.safe_yaml import YamlError, load_yaml
 
     try:
-        return yaml.safe_load(text)
-    except yaml.YAMLError as e:
-        mark = getattr(e, "problem_mark", None)
-        where = f" (column {mark.column + 1})" if mark is not None else ""
-        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        fail(f"{name}: malformed YAML: {problem}{where}")
+        return load_yaml(text, name)[0]
+    except YamlError as e:
+        lines = text.count("\n") + 1
+        if e.line is None:
+            where = ""
+        elif e.line > lines:  # libyaml marks a value that ends too soon past its last line
+            where = " (at the end)"
+        else:
+            where = f" (column {e.column})" if lines == 1 else f" (line {e.line}, column {e.column})"
+        fail(f"{name}: {e.problem}{where}")
 
 
 AEB_HELP = ("override every scenario's ego.aeb: on (the scenario's AEB settings if it has them, else the "
@@ -127,6 +174,36 @@ def aeb_option(text: str) -> str:
     if value not in ("on", "off"):
         fail(f"--aeb {text!r}: expected on or off")
     return value
+
+
+def probability_option(name: str):
+    """A parser for an option that is a probability: a finite number in [0, 1]; another is one line, exit 2."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = float("nan")
+        if not 0.0 <= value <= 1.0:  # NaN too
+            fail(f"{name} {text!r}: a number in [0, 1] expected")
+        return value
+
+    return parse
+
+
+RENDERERS = ("auto", "egl", "tiny")
+
+
+def renderer_option(text: str) -> str:
+    """The ``--renderer`` option's value, auto | egl | tiny; another is one line, exit 2 (at parse time)."""
+    value = text.strip().lower()
+    if value not in RENDERERS:
+        fail(f"--renderer {text!r}: expected {', '.join(RENDERERS)}")
+    return value
+
+
+def renderer_param():  # the --renderer option of run / render
+    return typer.Option("--renderer", metavar="|".join(RENDERERS), help=" | ".join(RENDERERS), parser=renderer_option)
 
 
 def aeb_param():  # the --aeb option of run / suite / regress / sweep
@@ -233,6 +310,10 @@ def run_scenario(
     from lookahead.tools.sinks.rundir import RunDirWriter
 
     scenario = with_aeb(with_detector(load_scenario(scenario_path), detector, model), aeb)
+    if video is not None:  # a path that can never be written fails before the simulator loads
+        from lookahead.tools.sinks.video import check_video_path
+
+        check_video_path(video)
     runner = Runner(scenario, render=render, renderer_backend=renderer)
     try:
         sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
@@ -264,7 +345,7 @@ def run(
     scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=catalogue_path)],
     out: Annotated[Path, typer.Option("--out", help="run directory to write")],
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = True,
-    renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
+    renderer: Annotated[str | None, renderer_param()] = None,
     db: Annotated[Path | None, typer.Option("--db", help="also write into this SQLite store (runs accumulate)")] = None,
     sqlite: Annotated[bool, typer.Option("--sqlite", help="write the store to RUN_DIR/run.sqlite")] = False,
     video: Annotated[Path | None, typer.Option("--video", help="annotated MP4 (e.g. RUN_DIR/annotated.mp4)")] = None,
@@ -387,9 +468,9 @@ def print_suite(summary: dict) -> None:
 def render(
     scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=catalogue_path)],
     out: Annotated[Path, typer.Option("--out", help="directory for PNG frames")],
-    every: Annotated[int, typer.Option(help="keep every k-th camera frame")] = 1,
+    every: Annotated[int, typer.Option(min=1, help="keep every k-th camera frame")] = 1,
     amodal: Annotated[bool, typer.Option(help="draw amodal (projected 3D) boxes instead of visible ones")] = False,
-    renderer: Annotated[str | None, typer.Option(help="auto | egl | tiny")] = None,
+    renderer: Annotated[str | None, renderer_param()] = None,
 ) -> None:
     """Write PNG camera frames with ground-truth boxes, ids and classes drawn."""
     from lookahead.sim.runner import Runner
@@ -479,10 +560,10 @@ def sweep(
     Finished variants are skipped on a re-run; a failing variant is recorded in
     summary.json and the others go on (exit 1 at the end if any failed).
     """
-    from lookahead.tools.runs.sweep import is_complete, load_sweep, run_sweep
+    from lookahead.tools.runs.sweep import load_sweep, run_sweep, todo_variants
 
     _, _, variants = load_sweep(sweep_file, aeb=aeb)
-    todo = [v for v in variants if not is_complete(out.resolve() / "runs" / v.id, v.scenario)]
+    todo = todo_variants(out, variants, db)
     if dry_run:
         for v in variants:
             state = "todo" if v in todo else "done"
@@ -565,8 +646,8 @@ def ncap(
 def bench_sim(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=catalogue_path)] = Path("highway_traffic"),
-    ticks: Annotated[int, typer.Option(help="ticks per case")] = 400,
-    frames: Annotated[int, typer.Option(help="rendered frames per resolution")] = 30,
+    ticks: Annotated[int, typer.Option(min=1, help="ticks per case")] = 400,
+    frames: Annotated[int, typer.Option(min=1, help="rendered frames per resolution")] = 30,
 ) -> None:
     """ms per tick: bare highway-env, our world, and rendering at 640x360 and 960x540."""
     from lookahead.tools.bench.common import bench_sim as run_bench
@@ -745,16 +826,21 @@ def train_detector(
     balance: Annotated[float, typer.Option(min=0.0, max=1.0, help="crops centre on an object of class c with weight freq(c)^-BALANCE: 0 every object alike, 1 every class alike")] = 0.5,
 ) -> None:
     """Train the compact detector (extra `train`: torch) on exported COCO splits; export ONNX."""
-    _require_torch("train-detector")
-    from lookahead.tools.detector.train import TrainConfig, train
-
-    logging.getLogger("lookahead.tools.detector").setLevel(logging.INFO)  # one line per epoch
+    # what can be checked without torch is checked first: importing it takes seconds
     if init is not None and not init.is_file():
         raise FileNotFoundError(f"{init}: no such checkpoint")
     if crop[0] % 32 or crop[1] % 32:
         raise typer.BadParameter(f"--crop: multiples of 32 expected, got {crop[0]} {crop[1]}")
     if scale[0] > scale[1]:
         raise typer.BadParameter(f"--scale: LO <= HI expected, got {scale[0]} {scale[1]}")
+    for d in data:
+        if not (d / "train" / "annotations.json").is_file():
+            raise FileNotFoundError(f"{d / 'train' / 'annotations.json'}: no COCO annotations (a dataset directory "
+                                    "holds train/ and val/ splits: export-dataset --format coco)")
+    _require_torch("train-detector")
+    from lookahead.tools.detector.train import TrainConfig, train
+
+    logging.getLogger("lookahead.tools.detector").setLevel(logging.INFO)  # one line per epoch
     arch = {k: v for k, v in (("widths", widths), ("neck", neck), ("head", head), ("blocks", blocks))
             if v is not None}
     cfg = TrainConfig(epochs=epochs, batch=batch, lr=lr, seed=seed, eval_every=eval_every, limit=limit,
@@ -797,7 +883,8 @@ def soup_detector(
 def eval_detector(
     model: Annotated[Path, typer.Argument(help="ONNX detector")],
     splits: Annotated[list[Path], typer.Argument(help="COCO split directories (annotations.json + images/)")],
-    conf: Annotated[float, typer.Option(help="operating score threshold for precision / recall")] = 0.25,
+    conf: Annotated[float, typer.Option(help="operating score threshold for precision / recall",
+                                        parser=probability_option("--conf"))] = 0.25,
     preprocess: Annotated[str | None, typer.Option(
         help="preprocessing chain before the detector, YAML, e.g. '[{op: clahe, clip_limit: 3}, {op: gamma, gamma: 1.5}]'"
     )] = None,
@@ -815,6 +902,8 @@ def eval_detector(
     from lookahead.tools.detector.evaluate import evaluate_model
 
     zoom = windows_option(windows)
+    if out is not None:  # an unwritable --out fails now, not after the evaluation
+        out.parent.mkdir(parents=True, exist_ok=True)
 
     chain = None
     if preprocess is not None:
@@ -823,8 +912,7 @@ def eval_detector(
         try:
             chain = PreprocessChain(yaml_option("--preprocess", preprocess))
         except ValueError as e:
-            console.print(f"[bold red]error:[/] --preprocess: {e}", markup=True, highlight=False, soft_wrap=True)
-            raise typer.Exit(2) from None
+            fail(f"--preprocess: {e}")
     results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom,
                                        min_height=min_height)
                for sp in splits}
@@ -869,17 +957,17 @@ def track(
         fail(f"--frame-rate must be positive, got {frame_rate}")
     try:
         rate, source, info = resolve_frame_rate(det, frame_rate)
-        if source == "default":
-            where = "has no frameRate" if info is not None else "found beside or above it"
-            what = f"{info.path} {where}" if info is not None else f"no seqinfo.ini {where}"
-            console.print(f"warning: {det}: {what}; assuming {rate:g} fps (pass --frame-rate to set it)",
-                          highlight=False, soft_wrap=True)
-        elif source == "--frame-rate" and info is not None and info.frame_rate not in (None, rate):
-            console.print(f"warning: --frame-rate {rate:g} overrides frameRate={info.frame_rate:g} of {info.path}",
-                          highlight=False, soft_wrap=True)
         summary = run_tracker_on_mot(det, out, frame_rate=rate)
     except (OSError, ValueError) as exc:
-        fail(describe(exc))
+        fail(describe(exc))  # the one line: no warning about the frame rate before it
+    if source == "default":
+        where = "has no frameRate" if info is not None else "found beside or above it"
+        what = f"{info.path} {where}" if info is not None else f"no seqinfo.ini {where}"
+        console.print(f"warning: {det}: {what}; assumed {rate:g} fps (pass --frame-rate to set it)",
+                      highlight=False, soft_wrap=True)
+    elif source == "--frame-rate" and info is not None and info.frame_rate not in (None, rate):
+        console.print(f"warning: --frame-rate {rate:g} overrides frameRate={info.frame_rate:g} of {info.path}",
+                      highlight=False, soft_wrap=True)
     origin = {"--frame-rate": "from --frame-rate", "default": "default"}.get(source, f"from {source}")
     typer.echo(f"frame rate: {rate:g} fps ({origin})")
     typer.echo(f"wrote {out}: {summary['track_rows']} rows, {summary['tracks']} tracks over "
@@ -916,7 +1004,7 @@ def eval_mot(
 @user_errors
 def bench_all(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    repeats: Annotated[int, typer.Option(help="repeats for the track and sinks benchmarks")] = 3,
+    repeats: Annotated[int, typer.Option(min=1, help="repeats for the track and sinks benchmarks")] = 3,
 ) -> None:
     """Every benchmark (sim, track, sinks, env, sweep, the full loop) in one process; one JSON with all ratios."""
     from lookahead.tools.bench.all import bench_all as run_bench
@@ -941,6 +1029,9 @@ def bench_detect(
 ) -> None:
     """The ONNX detector end to end (letterbox, inference, decode, NMS) vs bare session.run, 640x360 by default."""
     from lookahead.perception.config import DEFAULT_MODEL
+    from lookahead.perception.detectors.onnx_detector import OnnxDetector
+
+    OnnxDetector(model or DEFAULT_MODEL)  # a bad model: one line (ModelError) before the simulator loads
     from lookahead.tools.bench.detect import bench_detect as run_bench
 
     result = run_bench(model or DEFAULT_MODEL, scenario, frames, repeats, windows_option(windows),
@@ -956,7 +1047,7 @@ def bench_detect(
 def bench_sinks(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     scenario: Annotated[Path, typer.Option(help="scenario to run", parser=catalogue_path)] = Path("ped_crossing_nearside"),
-    repeats: Annotated[int, typer.Option(help="runs per configuration")] = 3,
+    repeats: Annotated[int, typer.Option(min=1, help="runs per configuration")] = 3,
 ) -> None:
     """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
     from lookahead.tools.bench.sinks import bench_sinks as run_bench
@@ -969,7 +1060,7 @@ def bench_sinks(
 @user_errors
 def bench_track(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
-    repeats: Annotated[int, typer.Option(help="timed passes over every sequence")] = 3,
+    repeats: Annotated[int, typer.Option(min=1, help="timed passes over every sequence")] = 3,
 ) -> None:
     """fps and MOTA/IDF1: our tracker vs deep-sort-realtime (no embedder) on MOT15 and simulated detections."""
     from lookahead.tools.bench.track import TRACKERS
@@ -984,7 +1075,7 @@ def bench_track(
 def bench_env(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     scenario: Annotated[Path, typer.Option(help="scenario with traffic", parser=catalogue_path)] = Path("highway_traffic"),
-    steps: Annotated[int, typer.Option(help="timed env steps")] = 600,
+    steps: Annotated[int, typer.Option(min=1, help="timed env steps")] = 600,
 ) -> None:
     """ForwardTracks-v0 steps vs bare highway-env with the same traffic; real-time factor."""
     from lookahead.tools.bench.env import bench_env as run_bench
@@ -993,12 +1084,33 @@ def bench_env(
     save_bench(result, out)
 
 
+@bench_app.command("sinks-memory")
+@user_errors
+def bench_sinks_memory(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    scenario: Annotated[Path, typer.Option(help="scenario to lengthen and run", parser=catalogue_path)] = Path("ped_crossing_nearside"),
+    frames: Annotated[int, typer.Option(min=1, help="camera frames to run (the scenario is lengthened, collisions do not end it)")] = 2000,
+    start: Annotated[int, typer.Option(min=0, help="the frame RSS growth is measured from")] = 200,
+    bare: Annotated[bool, typer.Option("--bare", help="also measure the run without sinks first")] = False,
+) -> None:
+    """RSS growth of a long rendered run with every sink (run dir, SQLite, video, rerun); bar: < 20 MB over 2000 frames."""
+    from lookahead.tools.bench.sinks import bench_sinks_memory as run_bench
+
+    if start >= frames:
+        fail(f"--start {start}: must be below --frames {frames}")
+    result = run_bench(scenario, frames=frames, start=start, bare=bare)
+    save_bench(result, out)
+    key = f"rss_growth_mb_{start}_to_end"
+    console.print(f"{key} = {result[key]:.2f} over {result['frames']} frames "
+                  f"({result['memory']['sinks']['rss_growth_kb_per_frame']:.1f} KB/frame)", highlight=False)
+
+
 @bench_app.command("sweep")
 @user_errors
 def bench_sweep(
     out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
     sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)", parser=catalogue_path)] = Path("sweeps/aeb_stationary_car"),
-    variants: Annotated[int | None, typer.Option(help="use only the first N variants")] = None,
+    variants: Annotated[int | None, typer.Option(min=1, help="use only the first N variants")] = None,
     repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
 ) -> None:
     """Wall time of one sweep on 1 worker and on 2 workers (warm pools, rendering off)."""

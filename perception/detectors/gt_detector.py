@@ -71,7 +71,7 @@ _ASPECTS = np.array([_ASPECT[c] for c in CLASSES])
 class GtNoiseConfig(BaseModel):
     """Noise model of ``GtNoiseDetector``; defaults give a good but imperfect detector."""
 
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
     miss_rate: float = Field(
         0.05, ge=0, le=1, description="Base miss probability of an easy object."

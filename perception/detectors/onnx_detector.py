@@ -29,7 +29,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from lookahead.perception.detections import CLASS_ID, Detections
 from lookahead.perception.detectors.base import DetectorTruth
@@ -42,6 +41,7 @@ from lookahead.perception.detectors.windows import (
 from lookahead.perception.geometry import clip_boxes
 from lookahead.perception.letterbox import letterbox, padded_size, unletterbox_boxes
 from lookahead.perception.nms import nms
+from lookahead.perception.safe_yaml import load_yaml
 
 log = logging.getLogger(__name__)
 
@@ -80,6 +80,15 @@ CONTAINMENT = 0.8
 
 #: A dynamic-size input is padded to a multiple of this (px): the coarsest stride of YOLO-family nets.
 INPUT_MULTIPLE = 32
+
+#: Input sides (px) a model may ask for (its static input, its ``imgsz`` metadata) or be given
+#: (``input_size``): a bigger one would allocate gigabytes per frame (60000 x 60000 x 3 floats
+#: is 43 GB), so it is a broken or hostile model, refused at load.
+MIN_INPUT_SIDE, MAX_INPUT_SIDE = INPUT_MULTIPLE, 4096
+
+#: Longest metadata value read (``imgsz``, ``names``), in characters; a longer one is refused
+#: before it is parsed.
+MAX_METADATA_CHARS = 1 << 16
 
 _V5, _V8 = "v5", "v8"
 
@@ -123,8 +132,8 @@ def load_names_file(path: str | Path) -> list[str]:
         raise ModelError(f"{path}: cannot read names file ({_one_line(e)})") from e
     if p.suffix.lower() in (".yaml", ".yml", ".json"):
         try:
-            obj = json.loads(text) if p.suffix.lower() == ".json" else yaml.safe_load(text)
-        except (ValueError, yaml.YAMLError) as e:
+            obj = json.loads(text) if p.suffix.lower() == ".json" else load_yaml(text, str(p))[0]
+        except (ValueError, RecursionError) as e:  # YamlError is a ValueError
             raise ModelError(f"{path}: cannot parse names file ({_one_line(e)})") from e
         names = _names_from_obj(obj)
         if names is None:
@@ -138,10 +147,10 @@ def load_names_file(path: str | Path) -> list[str]:
 def _parse_metadata_names(value: str) -> list[str] | None:
     try:
         obj = ast.literal_eval(value)
-    except (ValueError, SyntaxError):
+    except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
         try:
             obj = json.loads(value)
-        except ValueError:
+        except (ValueError, RecursionError):
             return None
     return _names_from_obj(obj)
 
@@ -249,23 +258,53 @@ class OnnxDetector:
         h, w = _static(shape[2]), _static(shape[3])
         self.dynamic_input = h is None or w is None
         if not self.dynamic_input:
+            if max(h, w) > MAX_INPUT_SIDE:
+                raise ModelError(
+                    f"{self._label}: input {h}x{w} px is larger than {MAX_INPUT_SIDE} px a side"
+                )
             if input_size is not None and _as_hw(input_size) != (h, w):
                 log.warning(
                     "%s: input_size %s ignored; model input is %dx%d", self._label, input_size, h, w
                 )
             self.input_hw = (h, w)
+        elif input_size is not None:
+            self.input_hw = _as_hw(input_size)
+            if not all(MIN_INPUT_SIDE <= v <= MAX_INPUT_SIDE for v in self.input_hw):
+                raise ModelError(
+                    f"{self._label}: input_size {self.input_hw[0]}x{self.input_hw[1]}: each side must be "
+                    f"{MIN_INPUT_SIDE}..{MAX_INPUT_SIDE} px"
+                )
         else:
-            self.input_hw = _as_hw(input_size if input_size is not None else self._metadata_imgsz() or 640)
+            self.input_hw = self._metadata_imgsz() or (640, 640)
+
+    def _metadata(self, key: str) -> str | None:
+        """The model's metadata value ``key`` (None when absent); ``ModelError`` when it is longer
+        than ``MAX_METADATA_CHARS``."""
+        value = (self.session.get_modelmeta().custom_metadata_map or {}).get(key)
+        if value is not None and len(value) > MAX_METADATA_CHARS:
+            raise ModelError(
+                f"{self._label}: metadata {key!r} is {len(value)} characters long, more than {MAX_METADATA_CHARS}"
+            )
+        return value
 
     def _metadata_imgsz(self) -> tuple[int, int] | None:
-        """The ``imgsz`` metadata (Ultralytics: ``[h, w]`` or a side), None when absent or unreadable."""
-        value = (self.session.get_modelmeta().custom_metadata_map or {}).get("imgsz")
+        """The ``imgsz`` metadata (Ultralytics: ``[h, w]`` or a side), None when absent or unreadable;
+        ``ModelError`` when a side is outside ``MIN_INPUT_SIDE..MAX_INPUT_SIDE`` or not a multiple of
+        ``INPUT_MULTIPLE``."""
+        value = self._metadata("imgsz")
         try:
             size = ast.literal_eval(value) if value else None
             hw = _as_hw(size if isinstance(size, int) else tuple(size)) if size is not None else None
-        except (ValueError, SyntaxError, TypeError):
+        except (ValueError, SyntaxError, TypeError, OverflowError, MemoryError, RecursionError):
             hw = None
-        return hw if hw is not None and min(hw) > 0 else None
+        if hw is None:
+            return None
+        if not all(MIN_INPUT_SIDE <= v <= MAX_INPUT_SIDE and v % INPUT_MULTIPLE == 0 for v in hw):
+            raise ModelError(
+                f"{self._label}: metadata imgsz {hw[0]}x{hw[1]}: each side must be a multiple of "
+                f"{INPUT_MULTIPLE} in {MIN_INPUT_SIDE}..{MAX_INPUT_SIDE} px"
+            )
+        return hw
 
     def _resolve_names(self, names: Any) -> list[str] | None:
         if names is not None:
@@ -277,12 +316,12 @@ class OnnxDetector:
                     f"{self._label}: names argument is not a list or {{index: name}} dict"
                 )
             return parsed
-        meta = self.session.get_modelmeta().custom_metadata_map or {}
-        if "names" in meta:
-            parsed = _parse_metadata_names(meta["names"])
+        meta_names = self._metadata("names")
+        if meta_names is not None:
+            parsed = _parse_metadata_names(meta_names)
             if parsed is not None:
                 return parsed
-            log.warning("%s: unreadable 'names' metadata %r", self._label, meta["names"][:80])
+            log.warning("%s: unreadable 'names' metadata %r", self._label, meta_names[:80])
         sidecar = self.model_path.with_suffix(".names")
         if sidecar.is_file():
             return load_names_file(sidecar)

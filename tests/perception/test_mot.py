@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 
 import numpy as np
@@ -9,6 +10,8 @@ import pytest
 
 from lookahead.perception.detections import Detections
 from lookahead.perception.mot import (
+    MAX_FRAME,
+    MotFileError,
     MotRecords,
     from_boxes,
     from_detections,
@@ -59,12 +62,41 @@ def test_short_rows_get_defaults_and_comments_are_skipped(tmp_path: Path) -> Non
         ("1.5,2,3,4,5,6", "frame must be an integer"),
         ("1,2.5,3,4,5,6", "id must be an integer"),
         ("1,2,nan,4,5,6", "non-finite"),
+        ("1e10,-1,1,1,5,5", "frame must be an integer >= 1 and <= 100000"),
+        ("100001,-1,1,1,5,5", "frame must be an integer >= 1 and <= 100000"),
+        ("1,1e12,1,1,5,5", "id must be an integer within"),
+        ("1,-1,1,1,1e300,5", "a value beyond"),
+        ("1,1,10,10,-20,-20", "width and height must be >= 0"),
     ],
 )
 def test_malformed_line_names_file_and_line(tmp_path: Path, line: str, message: str) -> None:
     path = tmp_path / "det.txt"
     path.write_text(f"1,-1,1,1,5,5,0.9,-1,-1,-1\n{line}\n")
     with pytest.raises(ValueError, match=message) as err:
+        read_mot(path)
+    assert f"{path}:2" in str(err.value)
+
+
+def test_huge_frame_number_is_refused_before_allocating(tmp_path: Path) -> None:
+    path = tmp_path / "det.txt"
+    path.write_text("1,-1,1,1,5,5,0.9\n10000000000,-1,1,1,5,5,0.9\n")  # 1e10 frames: 75 GiB to iterate
+    t0 = time.perf_counter()
+    with pytest.raises(MotFileError, match="frame must be an integer") as err:
+        read_mot(path)
+    assert time.perf_counter() - t0 < 2.0
+    assert f"{path}:2" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_iter_frames_refuses_a_huge_sequence_length() -> None:
+    with pytest.raises(ValueError, match="more than"):
+        next(iter_frames(_records(), num_frames=10**10))
+    assert len(list(iter_frames(_records(), num_frames=MAX_FRAME // 1000))) == MAX_FRAME // 1000
+
+
+def test_binary_file_names_file_and_line(tmp_path: Path) -> None:
+    path = tmp_path / "det.txt"
+    path.write_bytes(b"1,-1,1,1,5,5,0.9\n\x00\xff\xfe\x80garbage\n")
+    with pytest.raises(MotFileError, match="not UTF-8 text") as err:
         read_mot(path)
     assert f"{path}:2" in str(err.value)
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -287,3 +289,58 @@ def test_a_bad_zoom_window_is_a_model_error_naming_it(tmp_path):
     path = make_model(tmp_path / "m.onnx", v8_output())
     with pytest.raises(ModelError, match=r"m.onnx: window 0: fractions of the image"):
         OnnxDetector(path, windows=[(0.5, 0.2, 0.4, 0.9)])
+
+
+HOSTILE = (  # a model's metadata asking for what would allocate gigabytes, or not be parsed at all
+    ({"imgsz": "[60000, 60000]"}, "metadata imgsz 60000x60000"),
+    ({"imgsz": "60000"}, "metadata imgsz 60000x60000"),
+    ({"imgsz": "[640, 100]"}, "metadata imgsz 640x100"),
+    ({"imgsz": "[400, 640]"}, "multiple of 32"),
+    ({"imgsz": "[0, -32]"}, "metadata imgsz 0x-32"),
+    ({"names": "{0: 'car', " + "1: 'x' " * 20000 + "}"}, "metadata 'names' is"),
+)
+
+
+@pytest.mark.parametrize(("metadata", "message"), HOSTILE)
+def test_hostile_metadata_is_a_model_error(tmp_path: Path, metadata: dict[str, str], message: str) -> None:
+    dynamic = ["batch", 3, "height", "width"]
+    path = make_model(tmp_path / "hostile.onnx", v8_output(), input_shape=dynamic, names=None, metadata=metadata)
+    assert message in _error(path)
+
+
+def test_unparsable_imgsz_is_ignored(tmp_path: Path) -> None:
+    dynamic = ["batch", 3, "height", "width"]
+    for value in ("[1e400, 1]", "nonsense", "[" * 5000):
+        path = make_model(tmp_path / "m.onnx", v8_output(), input_shape=dynamic, metadata={"imgsz": value})
+        assert OnnxDetector(path).input_hw == (640, 640)
+
+
+def test_a_huge_input_size_or_static_input_is_a_model_error(tmp_path: Path) -> None:
+    dynamic = ["batch", 3, "height", "width"]
+    path = make_model(tmp_path / "d.onnx", v8_output(), input_shape=dynamic)
+    assert "input_size 60000x60000" in _error(path, input_size=60000)
+    assert "larger than 4096 px" in _error(make_model(tmp_path / "s.onnx", v8_output(), input_shape=[1, 3, 60000, 60000]))
+
+
+@pytest.mark.skipif(not Path("/proc/self/status").is_file(), reason="peak RSS read from /proc")
+def test_a_60000_px_imgsz_is_refused_fast_and_small(tmp_path: Path) -> None:
+    """The hostile model is refused in well under 2 s and 300 MB (a fresh process, so its peak RSS is the load's)."""
+    dynamic = ["batch", 3, "height", "width"]
+    path = make_model(tmp_path / "hostile.onnx", v8_output(), input_shape=dynamic, metadata={"imgsz": "[60000, 60000]"})
+    # peak RSS from /proc (VmHWM starts afresh at exec; ru_maxrss would carry this pytest's own peak)
+    script = (
+        "import re, sys, time\n"
+        "from lookahead.perception.detectors import ModelError, OnnxDetector\n"
+        "import onnxruntime\n"
+        "t0 = time.perf_counter()\n"
+        "try:\n"
+        "    OnnxDetector(sys.argv[1]).detect(__import__('numpy').zeros((360, 640, 3), 'uint8'))\n"
+        "except ModelError as e:\n"
+        "    hwm = re.search(r'VmHWM:\\s+(\\d+) kB', open('/proc/self/status').read()).group(1)\n"
+        "    print(time.perf_counter() - t0, hwm, e)\n"
+    )
+    res = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    seconds, max_rss_kb, message = res.stdout.split(" ", 2)
+    assert "metadata imgsz 60000x60000" in message
+    assert float(seconds) < 2.0 and int(max_rss_kb) < 300 * 1024

@@ -218,3 +218,40 @@ def test_schema_describes_overrides_aeb_alerts_and_expectations():
     assert defs["PerceptionSpec"]["properties"]["estimator"]["$ref"] == "#/$defs/EstimatorConfig"
     assert "horizon" in s["properties"]["intent"]["properties"]
     assert "required" not in defs["RiskThresholds"]  # intent overrides may be partial
+
+
+ACTOR = "actors:\n  - {id: p, type: pedestrian, start: {x: 20, y: 2}, heading: 90, speed: 1.4}\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [  # values the schema once let through, each crashing later or meaning nothing
+        ("name: a\n" + ACTOR.replace("x: 20", "x: .nan"), ["x.yaml:3", "actors[0].start.x", "finite", "nan"]),
+        ("name: a\n" + ACTOR.replace("heading: 90", "heading: .inf"), ["x.yaml:3", "actors[0].heading", "inf"]),
+        ("name: a\n" + ACTOR.replace("x: 20", "x: 1e308"), ["x.yaml:3", "actors[0].start.x", "20000"]),
+        ("name: a\n" + ACTOR.replace("x: 20", "x: 19000"), ["actors[0].start.x", "along a road of 2000 m"]),
+        ("name: a\n" + ACTOR.replace("heading: 90", "heading: 1e9"), ["actors[0].heading", "720"]),
+        ("name: a\nseed: 4294967296\n", ["x.yaml:2", "seed", "4294967295"]),
+        ("name: a\nseed: -1\n", ["seed", "greater than or equal to 0"]),
+        ("name: a\nrate: 1e-300\n", ["x.yaml:2", "rate", "greater than or equal to 1"]),
+        ("name: a\nduration: 1e-300\n", ["x.yaml:2", "duration", "greater than or equal to 0.1"]),
+        ("name: a\nduration: 0.15\ncamera: {rate: 5}\n", ["duration", "shorter than one camera frame"]),
+        ("name: a\ncamera: {rate: 1e-300}\n", ["camera.rate", "greater than or equal to 1"]),
+        ("name: a\ntraffic: {speed: [30, 10]}\n", ["traffic.speed", "low <= high", "[30.0, 10.0]"]),
+        ("name: a\ntraffic: {speed: [.nan, 10]}\n", ["traffic.speed[0]", "finite"]),
+        ("name: a\nego: {s: 1e6}\n", ["ego.s", "20000"]),
+        ("name: a\nego: {s: 5000}\n", ["ego.s", "beyond the road's end"]),
+        ("name: a\nego: {controller: profile, profile: [[0, .nan]]}\n", ["ego.profile[0][1]", "finite"]),
+        ("name: a\nperception: {tracker: {max_age: .inf}}\n", ["perception.tracker.max_age", "finite"]),
+        ("name: a\nexpect: [{metric: {section: intent, name: macro_f1, min: 0.9, max: 0.5}}]\n", ["min 0.9 is above max 0.5"]),
+        ("name: a\n" + ACTOR.replace("speed: 1.4", "speed: 1.4, script: [{do: {waypoints: [[1e300, 0]]}}]"),
+         ["actors[0].script[0].do.waypoints[0][0]"]),
+    ],
+)
+def test_nan_inf_and_unphysical_values_are_refused_by_validate_and_run(text, expected):
+    with pytest.raises(ScenarioError) as e:
+        parse_scenario(text, "x.yaml")
+    msg = str(e.value)
+    assert "\n" not in msg and msg.startswith("x.yaml")
+    for part in expected:
+        assert part in msg, (part, msg)

@@ -167,7 +167,8 @@ def test_validate_prints_one_line_per_file_and_exits_2(tmp_path, body, needle):
     ("[[0.6, 0.2, 0.4, 0.8]]", "--windows: window 0: fractions of the image"),
     ("[[0.1, 0.2]]", "--windows: window 0: four numbers"),
     ("[[0.1, 0.2, 0.5, 0.6, 9]]", "--windows: window 0: zoom (input px per image px) in (0, 8] expected, got 9"),
-    ("[[0.1, 0.2", "--windows: malformed YAML: expected ',' or ']', but got '<stream end>' (column 11)"),
+    ("[[0.1, 0.2", "--windows: malformed YAML: did not find expected ',' or ']' (at the end)"),
+    ("[[0.1, 0.2]]]", "--windows: malformed YAML: did not find expected <document start> (column 13)"),
 ])
 def test_eval_detector_refuses_a_bad_zoom_window_on_one_line(tmp_path, windows, needle):
     res = runner.invoke(app, ["eval-detector", str(tmp_path / "m.onnx"), str(tmp_path), "--windows", windows])
@@ -203,3 +204,97 @@ def test_a_bad_aeb_switch_is_one_line_and_exit_2(tmp_path, command):
     text = res.output.strip()
     assert len(text.splitlines()) == 1 and "--aeb 'maybe': expected on or off" in text, text
     assert not out.exists()  # refused before anything ran
+
+
+def one_error_line(res, *needles: str) -> str:
+    """The single ``error:`` line of a user mistake: exit code 2, one non-empty stderr line holding
+    every needle, no traceback and nothing on stdout."""
+    assert res.exit_code == 2, (res.exit_code, res.output)
+    lines = [x for x in res.stderr.splitlines() if x.strip()]
+    assert len(lines) == 1, res.stderr
+    assert lines[0].startswith("error: ") and "Traceback" not in res.output, res.stderr
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+    return lines[0]
+
+
+@pytest.mark.parametrize(("args", "needles"), [
+    (["render", "stationary_car", "--out", "o", "--every", "x"], ["--every"]),
+    (["render", "stationary_car", "--out", "o", "--every", "0"], ["--every", "greater than or equal to 1"]),
+    (["render", "stationary_car", "--out", "o", "--every", "-3"], ["--every"]),
+    (["render", "stationary_car", "--out", "o", "--renderer", "vulkan"], ["--renderer 'vulkan'", "auto, egl, tiny"]),
+    (["run", "stationary_car", "--out", "o", "--renderer", "vulkan"], ["--renderer 'vulkan'"]),
+    (["render", "stationary_car", "--out", "o", "--bogus"], ["No such option: --bogus"]),
+    (["render", "stationary_car"], ["Missing option '--out'"]),
+    (["run"], ["Missing argument"]),
+    (["no-such-command"], ["No such command 'no-such-command'"]),
+    (["suite", "smoke", "--out", "o", "--workers", "0"], ["--workers"]),
+    (["replay", "r", "--out", "o", "--miss-rate", "2"], ["--miss-rate"]),
+    (["run", "stationary_car", "--out", "o", "--no-render", "--lang", "fr"], ["--lang must be en or zh"]),
+    (["bench", "detect", "--out", "o.json", "--frames", "zero"], ["--frames"]),
+    (["bench", "sim", "--out", "o.json", "--ticks", "-1"], ["--ticks"]),
+    (["bench", "sim", "--out", "o.json", "--frames", "0"], ["--frames"]),
+    (["bench", "env", "--out", "o.json", "--steps", "-5"], ["--steps"]),
+    (["bench", "sinks", "--out", "o.json", "--repeats", "0"], ["--repeats"]),
+    (["bench", "track", "--out", "o.json", "--repeats", "-1"], ["--repeats"]),
+    (["bench", "all", "--out", "o.json", "--repeats", "0"], ["--repeats"]),
+    (["bench", "sweep", "--out", "o.json", "--variants", "0"], ["--variants"]),
+    (["eval-detector", "m.onnx", "split", "--conf", "nan"], ["--conf 'nan': a number in [0, 1] expected"]),
+    (["eval-detector", "m.onnx", "split", "--conf", "5"], ["--conf '5': a number in [0, 1] expected"]),
+])
+def test_an_option_mistake_is_one_line_and_exit_2(tmp_path, monkeypatch, args, needles):
+    """click's usage errors (bad value, unknown option or command, missing one) and BadParameter
+    raised in a command end as one ``error:`` line, not click's usage box; nothing is written."""
+    monkeypatch.chdir(tmp_path)
+    one_error_line(runner.invoke(app, args), *needles)
+    assert not (tmp_path / "o").exists()
+
+
+def test_help_and_no_arguments_still_show_the_help():
+    res = runner.invoke(app, ["--help"])
+    assert res.exit_code == 0 and "Usage" in res.stdout and "render" in res.stdout
+    res = runner.invoke(app, ["render", "--help"])
+    assert res.exit_code == 0 and "--every" in res.stdout and "--renderer" in res.stdout
+    res = runner.invoke(app, [])
+    assert res.exit_code == 2 and "Usage" in res.stdout  # as click does: the help, exit 2
+    res = runner.invoke(app, ["bench"])
+    assert res.exit_code == 2 and "detect" in res.stdout
+    assert runner.invoke(app, ["catalogue"]).exit_code == 0
+
+
+def test_an_error_line_prints_brackets_as_they_are(tmp_path):
+    """A name with rich markup look-alikes (sweep variants are ``base[v=1]``) is printed verbatim."""
+    bad = tmp_path / "[bold]x[v=1][/x].yaml"
+    res = runner.invoke(app, ["run", str(bad), "--out", str(tmp_path / "o")])
+    one_error_line(res, "[bold]x[v=1][/x].yaml")
+
+
+@pytest.mark.skipif(not (Path(sys.executable).parent / "lookahead").exists(), reason="console script not installed")
+def test_console_script_reports_an_option_mistake_on_one_line(tmp_path):
+    exe = Path(sys.executable).parent / "lookahead"
+    p = subprocess.run([str(exe), "render", "stationary_car", "--out", str(tmp_path / "o"), "--every", "0"],
+                       capture_output=True, text=True, env={**os.environ, "COLUMNS": "80"})
+    assert p.returncode == 2 and "Traceback" not in p.stderr and p.stdout == ""
+    assert p.stderr.strip().count("\n") == 0 and p.stderr.startswith("error: ") and "--every" in p.stderr
+    p = subprocess.run([str(exe), "--help"], capture_output=True, text=True)
+    assert p.returncode == 0 and "Usage" in p.stdout
+
+
+def test_an_unwritable_eval_output_fails_before_the_evaluation(tmp_path):
+    res = runner.invoke(app, ["eval-detector", str(ROOT / "models" / "lookahead-det.onnx"), str(tmp_path),
+                              "--out", "/dev/null/m.json"])
+    one_error_line(res, "/dev/null")
+
+
+def test_train_detector_without_a_dataset_answers_before_importing_torch(tmp_path):
+    import time
+
+    t0 = time.perf_counter()
+    res = runner.invoke(app, ["train-detector", str(tmp_path / "no_dataset"), "--out", str(tmp_path / "m.onnx")])
+    one_error_line(res, str(tmp_path / "no_dataset" / "train" / "annotations.json"), "no COCO annotations")
+    assert time.perf_counter() - t0 < 2.0
+
+
+def test_track_on_a_missing_det_file_is_only_the_error(tmp_path):
+    res = runner.invoke(app, ["track", "--det", str(tmp_path / "det.txt"), "--out", str(tmp_path / "o.txt")])
+    one_error_line(res, str(tmp_path / "det.txt"))  # no frame-rate warning before it

@@ -43,6 +43,13 @@ Formats (``out`` layout):
 
 Box coordinates are written with 2 decimals (YOLO: 6 decimals normalised), so
 re-read boxes are within 0.01 px of the ground truth.
+
+File and directory names made from user data (scenario names, a generator's
+``name`` and split names) go through ``safe_file_stem``: only ``[A-Za-z0-9._-]``
+are kept (others become ``_``, leading dots are dropped, the length is capped),
+and a name that had to be changed gets a short hash of the original, so distinct
+names (``base[v=1]``, ``base[v=2]``) stay distinct; every path is checked to lie
+inside ``--out`` (``inside``).
 """
 
 from __future__ import annotations
@@ -77,7 +84,7 @@ from lookahead.tools.dataset.scene_gen import (
 )
 from lookahead.tools.runs.suite import is_suite, load_suite, read_yaml
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
-from lookahead.tools.sinks.rundir import OutputError, prepare_dir
+from lookahead.tools.sinks.rundir import OutputError, inside, prepare_dir, safe_file_stem
 
 log = logging.getLogger(__name__)
 
@@ -153,6 +160,11 @@ class _Seq:
     frames: int = 0
     objects: int = 0
 
+    @property
+    def stem(self) -> str:
+        """The name as used in file names (``safe_file_stem``)."""
+        return safe_file_stem(self.name)
+
 
 class Writer:
     """Base dataset writer: one call per exported frame, then ``finish``."""
@@ -167,6 +179,7 @@ class Writer:
     def begin(self, seq: _Seq) -> None:
         self.seq = seq
         self.sequences.append(seq)
+        inside(self.out, self.out / seq.stem)
 
     def write(self, rec: TickRecord, labels: list[ObjectLabel]) -> None:
         raise NotImplementedError
@@ -190,7 +203,7 @@ class YoloWriter(Writer):
 
     def write(self, rec: TickRecord, labels: list[ObjectLabel]) -> None:
         s = self.seq
-        stem = f"{s.name}_{rec.frame_index:06d}"
+        stem = f"{s.stem}_{rec.frame_index:06d}"
         self._image(self.images / f"{stem}{self.image_ext}", rec)
         lines, attrs = [], []
         for o in labels:
@@ -221,7 +234,7 @@ class CocoWriter(Writer):
 
     def write(self, rec: TickRecord, labels: list[ObjectLabel]) -> None:
         s = self.seq
-        name = f"{s.name}_{rec.frame_index:06d}{self.image_ext}"
+        name = f"{s.stem}_{rec.frame_index:06d}{self.image_ext}"
         self._image(self.images_dir / name, rec)
         image_id = len(self.images) + 1
         self.images.append({
@@ -261,7 +274,7 @@ class MotWriter(Writer):
 
     def begin(self, seq: _Seq) -> None:
         super().begin(seq)
-        self.dir = prepare_dir(self.out / seq.name)
+        self.dir = prepare_dir(inside(self.out, self.out / seq.stem))
         self.img1, self.gt = prepare_dir(self.dir / "img1"), prepare_dir(self.dir / "gt")
         self.rows = []
 
@@ -278,7 +291,7 @@ class MotWriter(Writer):
         (self.gt / "gt.txt").write_text("".join(self.rows))
         rate = max(1, round(s.rate / self.every))
         (self.dir / "seqinfo.ini").write_text(
-            f"[Sequence]\nname={s.name}\nimDir=img1\nframeRate={rate}\nseqLength={s.frames}\n"
+            f"[Sequence]\nname={s.stem}\nimDir=img1\nframeRate={rate}\nseqLength={s.frames}\n"
             f"imWidth={s.width}\nimHeight={s.height}\nimExt={self.image_ext}\n"
             f"classes={','.join(CLASSES)}\n"
         )
@@ -292,7 +305,7 @@ class StudyWriter(Writer):
         self.images, self.labels = prepare_dir(out / "images"), prepare_dir(out / "labels")
 
     def write(self, rec: TickRecord, labels: list[ObjectLabel]) -> None:
-        stem = f"{self.seq.name}_frame_{rec.frame_index:06d}"
+        stem = f"{self.seq.stem}_frame_{rec.frame_index:06d}"
         self._image(self.images / f"{stem}{self.image_ext}", rec)
         items = []
         for o in labels:
@@ -356,6 +369,9 @@ def export_scenarios(
     names = [s.name for s in scenarios]
     if len(set(names)) != len(names):
         raise ValueError(f"scenario names must be unique in one export, got {names}")
+    stems = [safe_file_stem(n).lower() for n in names]  # a case-insensitive file system too
+    if len(set(stems)) != len(stems):
+        raise ValueError(f"scenario names must give distinct file names in one export, got {names}")
     out = prepare_dir(Path(out))
     writer = make_writer(fmt, out, every)
     seqs = _run_export(scenarios, writer, every, render, extra_sinks)
@@ -428,7 +444,7 @@ def export_generated(
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) if workers > 1 else None
     try:
         for sp in splits:
-            split_dir = prepare_dir(out / sp)
+            split_dir = prepare_dir(inside(out, out / safe_file_stem(sp)))
             writer = make_writer(fmt, split_dir, every)
             jobs = [(spec, split_list[sp][i:i + chunk], weather, fmt, every, str(split_dir))
                     for i in range(0, len(split_list[sp]), chunk)]

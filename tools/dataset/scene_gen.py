@@ -18,14 +18,29 @@ sidewalks lie beyond y = (e + 0.5) * w (left) and y = (e - lanes + 0.5) * w
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import AfterValidator, Field, ValidationError, field_validator, model_validator
 
 from lookahead.sim.scenario import SUBTYPES, Scenario, ScenarioError, Strict
 from lookahead.tools.runs.suite import read_yaml
 
-Range = tuple[float, float]
+
+def _ordered(v: tuple) -> tuple:
+    """A [min, max] range: min <= max (a reversed one is a mistake, not an empty range)."""
+    if v[0] > v[1]:
+        raise ValueError(f"expected [min, max] with min <= max, got {list(v)}")
+    return v
+
+
+def _span(lo: float | None = None, hi: float | None = None, positive: bool = False, kind: type = float):
+    """A [min, max] range of ``kind`` whose ends lie in [lo, hi] (> 0 with ``positive``), ordered."""
+    end = Annotated[kind, Field(ge=None if positive else lo, gt=lo if positive else None, le=hi)]
+    return Annotated[tuple[end, end], AfterValidator(_ordered)]
+
+
+Range = _span()  # finite (Strict: no NaN or inf), min <= max
 
 
 class SplitSpec(Strict):
@@ -42,10 +57,10 @@ class SplitSpec(Strict):
 class CameraRandom(Strict):
     width: int = Field(640, ge=64, le=4096)
     height: int = Field(360, ge=48, le=4096)
-    fov_h: Range = (85.0, 95.0)
-    z: Range = Field((1.2, 1.8), description="mount height (m)")
-    x: Range = Field((-2.0, -1.0), description="mount x, ego frame (m)")
-    pitch: Range = Field((-6.0, 2.0), description="deg, > 0 looks up")
+    fov_h: _span(10.0, 169.0, positive=True) = (85.0, 95.0)
+    z: _span(0.2, 5.0, positive=True) = Field((1.2, 1.8), description="mount height (m)")
+    x: _span(-10.0, 2.0) = Field((-2.0, -1.0), description="mount x, ego frame (m)")
+    pitch: _span(-45.0, 45.0) = Field((-6.0, 2.0), description="deg, > 0 looks up")
     rate: float = Field(2.0, gt=0.0, le=20.0, description="frames per second exported")
 
 
@@ -56,8 +71,8 @@ class WeatherRandom(Strict):
     night: float = Field(0.2, ge=0.0)
     fog: float = Field(0.2, ge=0.0)
     rain: float = Field(0.2, ge=0.0)
-    fog_visibility: Range = Field((50.0, 300.0), description="m, log-uniform")
-    intensity: Range = Field((0.3, 1.0), description="rain / night strength")
+    fog_visibility: _span(0.0, 1e5, positive=True) = Field((50.0, 300.0), description="m, log-uniform")
+    intensity: _span(0.0, 1.0) = Field((0.3, 1.0), description="rain / night strength")
 
     @model_validator(mode="after")
     def _some(self) -> WeatherRandom:
@@ -66,9 +81,13 @@ class WeatherRandom(Strict):
         return self
 
 
+#: Most actors (and parked cars) a scene may ask for: each is placed by rejection sampling.
+MAX_ACTORS = 100
+
+
 class ActorRandom(Strict):
-    count: tuple[int, int] = Field((3, 10), description="actors per scene [min, max]")
-    x: Range = Field((3.0, 90.0), description="ego-relative start x (m)")
+    count: _span(0, MAX_ACTORS, kind=int) = Field((3, 10), description="actors per scene [min, max]")
+    x: _span(0.0, 2000.0) = Field((3.0, 90.0), description="ego-relative start x (m)")
     #: relative weights of the actor classes drawn (obstacles are distractors, not labelled)
     mix: dict[str, float] = Field(
         default_factory=lambda: {
@@ -76,7 +95,17 @@ class ActorRandom(Strict):
             "car": 2.0, "truck": 0.8, "bus": 0.8, "animal": 2.0, "obstacle": 0.5,
         }
     )
-    parked_cars: tuple[int, int] = Field((0, 3), description="stationary cars at the kerb")
+    parked_cars: _span(0, MAX_ACTORS, kind=int) = Field((0, 3), description="stationary cars at the kerb")
+
+    @field_validator("mix")
+    @classmethod
+    def _known_weights(cls, v: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(v) - set(_MOTION))
+        if unknown:
+            raise ValueError(f"unknown class(es) {', '.join(unknown)}; expected some of {', '.join(_MOTION)}")
+        if any(w < 0 for w in v.values()) or not sum(v.values()) > 0:
+            raise ValueError("expected weights >= 0, at least one positive")
+        return v
 
 
 class GeneratorSpec(Strict):
@@ -86,11 +115,11 @@ class GeneratorSpec(Strict):
     duration: float = Field(4.0, gt=0.0, le=60.0, description="s per scene")
     rate: float = Field(10.0, gt=0.0, le=100.0, description="simulation ticks per second")
     splits: dict[str, SplitSpec]
-    lanes: tuple[int, int] = (1, 4)
-    lane_width: Range = (3.0, 3.8)
+    lanes: _span(1, 6, kind=int) = (1, 4)
+    lane_width: _span(2.5, 5.0) = (3.0, 3.8)
     intersection: float = Field(0.2, ge=0.0, le=1.0, description="share of crossroads scenes")
-    traffic: tuple[int, int] = Field((0, 6), description="IDM vehicles [min, max]")
-    ego_speed: Range = Field((0.0, 15.0), description="m/s")
+    traffic: _span(0, 60, kind=int) = Field((0, 6), description="IDM vehicles [min, max]")
+    ego_speed: _span(0.0, 60.0) = Field((0.0, 15.0), description="m/s")
     camera: CameraRandom = Field(default_factory=CameraRandom)
     weather: WeatherRandom = Field(default_factory=WeatherRandom)
     actors: ActorRandom = Field(default_factory=ActorRandom)

@@ -33,6 +33,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from lookahead.perception.detections import CLASSES
 from lookahead.perception.letterbox import letterbox, letterbox_boxes
 
 log = logging.getLogger(__name__)
@@ -85,13 +86,67 @@ class Split:
     names: list[str]  # image file names
 
 
+class DatasetError(ValueError):
+    """A COCO annotations file that is not what ``export-dataset --format coco`` writes (one line
+    naming the file and the field)."""
+
+
+def _is_number(v: object) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _is_int(v: object) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+# what load_split reads of a COCO file: (key, check, expected), per image and per annotation
+_IMAGE_FIELDS = (("id", _is_int, "an integer"), ("file_name", lambda v: isinstance(v, str) and v != "", "a file name"),
+                 ("width", lambda v: _is_int(v) and 0 < v <= 1 << 15, "an integer 1..32768"),
+                 ("height", lambda v: _is_int(v) and 0 < v <= 1 << 15, "an integer 1..32768"))
+_ANNOTATION_FIELDS = (
+    ("image_id", _is_int, "an integer"),
+    ("category_id", lambda v: _is_int(v) and 1 <= v <= len(CLASSES), f"a class id 1..{len(CLASSES)}"),
+    ("bbox", lambda v: isinstance(v, list) and len(v) == 4 and all(map(_is_number, v)), "[x, y, w, h] numbers"),
+    ("occlusion", lambda v: _is_number(v) and 0 <= v <= 1, "a number 0..1"),
+    ("attributes", lambda v: isinstance(v, dict) and _is_number(v.get("range_m")), "a mapping with range_m, a number"),
+)
+
+
+def _read_coco(ann_file: Path) -> dict:
+    """``ann_file`` parsed and checked for what ``load_split`` reads; ``DatasetError`` names the file and
+    the first bad field (``images[3].width``)."""
+    try:
+        doc = json.loads(ann_file.read_bytes())
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise DatasetError(f"{ann_file}: not a COCO annotations file (not JSON: {str(e).splitlines()[0]})") from None
+    except RecursionError:
+        raise DatasetError(f"{ann_file}: not a COCO annotations file (nested too deeply)") from None
+    if not isinstance(doc, dict):
+        raise DatasetError(f"{ann_file}: not a COCO annotations file (a JSON object expected, got {type(doc).__name__})")
+    for key, fields in (("images", _IMAGE_FIELDS), ("annotations", _ANNOTATION_FIELDS)):
+        if key not in doc:
+            raise DatasetError(f"{ann_file}: no {key!r} key (a COCO annotations file has images and annotations)")
+        if not isinstance(doc[key], list):
+            raise DatasetError(f"{ann_file}: {key}: a list expected, got {type(doc[key]).__name__}")
+        for i, item in enumerate(doc[key]):
+            if not isinstance(item, dict):
+                raise DatasetError(f"{ann_file}: {key}[{i}]: a JSON object expected, got {type(item).__name__}")
+            for name, ok, expected in fields:
+                if name not in item:
+                    raise DatasetError(f"{ann_file}: {key}[{i}]: no {name!r} key")
+                if not ok(item[name]):
+                    raise DatasetError(f"{ann_file}: {key}[{i}].{name}: {expected} expected, got {item[name]!r:.40}")
+    return doc
+
+
 def load_split(path: str | Path, limit: int | None = None) -> Split:
-    """Read ``path/annotations.json``; its images are read when used (``ImageFiles``)."""
+    """Read ``path/annotations.json``; its images are read when used (``ImageFiles``). A file that is
+    not JSON or lacks what is read is a ``DatasetError`` naming it and the field."""
     root = Path(path)
     ann_file = root / "annotations.json"
     if not ann_file.is_file():
         raise FileNotFoundError(f"{ann_file}: no COCO annotations (export with --format coco)")
-    doc = json.loads(ann_file.read_text())
+    doc = _read_coco(ann_file)
     images = doc["images"][:limit] if limit else doc["images"]
     by_image: dict[int, list[dict]] = {}
     for a in doc["annotations"]:

@@ -37,7 +37,6 @@ import copy
 import json
 import logging
 import math
-import pickle
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -49,7 +48,7 @@ import numpy as np
 
 from lookahead.perception.detections import CLASSES
 from lookahead.tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS, ArchitectureError
-from lookahead.tools.detector.data import SCALE_RANGE, TrainSampler, load_splits
+from lookahead.tools.detector.data import SCALE_RANGE, TrainSampler, load_split, load_splits
 
 log = logging.getLogger(__name__)
 
@@ -216,8 +215,10 @@ def _load_state(path: Path, cfg: TrainConfig, data_dir: str | Path | Sequence[st
         raise FileNotFoundError(f"{path}: no training state to resume (it is written after each epoch)")
     try:  # tensors, numbers, strings and containers only: a state file cannot run code
         state = torch.load(path, map_location="cpu", weights_only=True)
-    except pickle.UnpicklingError as exc:
-        raise ResumeError(f"{path}: not a training state this tool wrote ({str(exc).splitlines()[0]})") from None
+    except Exception as exc:  # noqa: BLE001 -- UnpicklingError, a truncated zip, a text file: the same mistake
+        raise ResumeError(f"{path}: not a training state this tool wrote ({str(exc).splitlines()[0]:.120})") from None
+    if not isinstance(state, dict) or not isinstance(state.get("run"), dict) or "epoch" not in state:
+        raise ResumeError(f"{path}: not a training state this tool wrote (no run or epoch)")
     was, now = state["run"], _run_identity(cfg, data_dir)
     diff = [f"{k}={was.get(k)!r} (now {now[k]!r})" for k in now if was.get(k) != now[k]]
     if diff:
@@ -243,8 +244,24 @@ def init_checkpoint(out: str | Path) -> Path:
     return Path(out).with_suffix(".init.pt")
 
 
-def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
-    """``net`` (freshly initialised) started from ``init``: its weights, grown when narrower or shallower."""
+def _read_init_weights(init: Path) -> dict:
+    """The state dict of a ``--init`` ``.pt`` file (tensors only: a weights file cannot run code);
+    ``ArchitectureError`` naming the file when it is not one. Read before any data is."""
+    # lazy: torch is the optional extra 'train'
+    import torch
+
+    try:
+        weights = torch.load(init, map_location="cpu", weights_only=True)
+    except Exception as e:  # noqa: BLE001 -- any unreadable file is the same user mistake
+        raise ArchitectureError(f"--init {init}: not a weights file ({type(e).__name__})") from None
+    if not isinstance(weights, dict) or not all(hasattr(v, "shape") for v in weights.values()):
+        raise ArchitectureError(f"--init {init}: not a state dict of tensors")
+    return weights
+
+
+def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int, weights: dict | None):
+    """``net`` (freshly initialised) started from ``init`` (``weights``: its state dict, for a
+    ``.pt``): its weights, grown when narrower or shallower."""
     # lazy: torch (and growth, model, built on it) is the optional extra 'train'
     import torch
 
@@ -261,7 +278,7 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int):
                  .float().div_(255.0) for _ in range(CALIBRATION_BATCHES))
         load_exported(src, init, calib)
     else:
-        weights = torch.load(init, map_location="cpu", weights_only=True)
+        weights = _read_init_weights(init) if weights is None else weights
         try:
             src = CenterDet(len(CLASSES), **architecture({k: tuple(v.shape) for k, v in weights.items()}))
         except ArchitectureError as e:
@@ -294,18 +311,21 @@ def train(data_dir: str | Path | Sequence[str | Path], out: Path, cfg: TrainConf
     from lookahead.tools.detector.model import CenterDet
 
     state = _load_state(state_path(out), cfg, data_dir) if resume else None
+    init = None if state is not None else cfg.init  # a resumed run takes its weights from the state
+    init_weights = _read_init_weights(Path(init)) if init and Path(init).suffix != ".onnx" else None
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.threads)
     torch.use_deterministic_algorithms(True, warn_only=True)
     dirs = _data_dirs(data_dir)
     train_split = load_splits([d / "train" for d in dirs], cfg.limit)
     val_dir = dirs[0] / "val"
+    if val_dir.is_dir():  # a broken validation split fails now, not after the first epochs
+        load_split(val_dir)
     sampler = TrainSampler(train_split, cfg.crop, len(CLASSES), cfg.seed, balance=cfg.balance,
                            scale_range=cfg.scale)
-    init = None if state is not None else cfg.init  # a resumed run takes its weights from the state
     net = CenterDet(len(CLASSES), **cfg.architecture())
     if init:
-        net = _initial_network(net, Path(init), cfg, sampler, len(train_split.images))
+        net = _initial_network(net, Path(init), cfg, sampler, len(train_split.images), init_weights)
         if Path(init).suffix == ".onnx":  # its unfolded weights: a checkpoint to average with (soup)
             torch.save(net.state_dict(), init_checkpoint(out))
     net = net.to(memory_format=torch.channels_last)

@@ -11,7 +11,11 @@
 Output: ``table`` (rich, stdout), ``csv`` (csv module, stdout; inf as ``inf``),
 ``json`` (a list of objects; NaN -> null, inf -> 1e9 as in ``ticks.jsonl``), formatted here
 (``to_csv``, ``to_json``) and printed by the CLI.
-The DB is opened read-only.
+The DB is opened read-only (``tools.sinks.store.open_db(create=False)``), also in a
+directory this process cannot write (a read-only mount, another user's runs): there SQLite
+cannot create the WAL's ``-shm`` file, and the file is read ``immutable=1`` -- only when no
+``-wal`` with changes (a writer running, or killed) nor ``-journal`` lies beside it;
+otherwise one line says so.
 """
 
 from __future__ import annotations

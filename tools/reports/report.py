@@ -60,13 +60,12 @@ from lookahead.tools.reports.html import (
 )
 from lookahead.tools.reports.sweep import build_sweep_report, is_sweep_dir
 from lookahead.tools.scoring import estimation as est
-from lookahead.tools.scoring.io import load_run
+from lookahead.tools.scoring.io import check_text, load_run, run_record, ticks_records
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 from lookahead.tools.scoring.run import score_run
 from lookahead.tools.sinks.keyframes import KEY_FRAMES_INDEX, key_frame_reason
 from lookahead.tools.sinks.rundir import (
     METRICS_FILE,
-    RUN_FILE,
     SUMMARY_FILE,
     TICKS_FILE,
     RunDir,
@@ -173,7 +172,7 @@ class _Timeline:
 def _timeline(rd: RunDir) -> _Timeline:
     run = load_run(rd)  # the frames the scorer built from the same RunDir
     tl = _Timeline()
-    for f, rec in enumerate(rd.ticks):
+    for f, rec in enumerate(ticks_records(rd)):
         tl.t.append(float(rec["t"]))
         gt = rec["ground_truth"]
         for i, a in enumerate(gt["actor_id"]):
@@ -431,11 +430,54 @@ def _timing_table(timing: dict) -> str:
 # --------------------------------------------------------------------------- run and suite pages
 
 
+#: metrics.json sections the report reads as mappings
+_METRIC_SECTIONS = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "aeb", "timing")
+
+
+def check_metrics(path: Path, metrics: dict) -> dict:
+    """``metrics`` as read from ``path``, checked for the shapes the report reads; ``ReportError``
+    naming the file and the key for another (a hand-edited or foreign ``metrics.json``)."""
+    def bad(key: str, what: str, value: object) -> ReportError:
+        return ReportError(f"{path}: {key}: expected {what}, got {type(value).__name__}")
+
+    for key in _METRIC_SECTIONS:
+        sec = metrics.get(key)
+        if sec is not None and not isinstance(sec, dict):
+            raise bad(key, "a mapping", sec)
+        for sub, val in (sec or {}).items():
+            if sub in ("event_list", "onset_list") and val is not None and not (
+                    isinstance(val, list) and all(isinstance(e, dict) for e in val)):
+                raise bad(f"{key}.{sub}", "a list of mappings", val)
+            if sub == "per_class" and val is not None and not (
+                    isinstance(val, dict) and all(v is None or isinstance(v, dict) for v in val.values())):
+                raise bad(f"{key}.{sub}", "a mapping of mappings", val)
+    for stage, val in (metrics.get("timing") or {}).items():
+        if not isinstance(val, dict):
+            raise bad(f"timing.{stage}", "a mapping", val)
+    conf = (metrics.get("intent") or {}).get("confusion")
+    if conf is not None:
+        if not isinstance(conf, dict):
+            raise bad("intent.confusion", "a mapping", conf)
+        labels, matrix = conf.get("labels") or [], conf.get("matrix") or []
+        n = len(labels) if isinstance(labels, list) else -1
+        if n < 0 or not isinstance(matrix, list) or (labels and matrix and not (
+                len(matrix) == n and all(isinstance(r, list) and len(r) == n and
+                                         all(isinstance(v, int | float) and not isinstance(v, bool) for v in r)
+                                         for r in matrix))):
+            raise ReportError(f"{path}: intent.confusion: expected labels and a square matrix of counts")
+    exp = metrics.get("expectations")
+    if exp is not None and not (isinstance(exp, list) and all(isinstance(x, dict) and "passed" in x and "expectation" in x for x in exp)
+                                or isinstance(exp, dict)):
+        raise bad("expectations", "a list of results (each with passed and expectation)", exp)
+    return metrics
+
+
 def _ensure_metrics(rd: RunDir) -> dict:
     if not rd.has(METRICS_FILE):
         log.info("%s: no metrics.json, scoring first", rd.path)
         return score_run(rd)
-    return rd.read_metrics()
+    check_text(rd.path / METRICS_FILE)  # a binary one: one line naming it
+    return check_metrics(rd.path / METRICS_FILE, rd.read_metrics())
 
 
 def build_run_report(run: RunDir | Path) -> Path:
@@ -444,8 +486,8 @@ def build_run_report(run: RunDir | Path) -> Path:
     rd = as_rundir(run)
     run_dir = rd.path
     metrics = _ensure_metrics(rd)
-    run = rd.run if rd.has(RUN_FILE) else {}
-    records = rd.ticks
+    run = run_record(rd)
+    records = ticks_records(rd)
     sc = run.get("scenario") or {}
     summ = run.get("summary") or {}
     name = sc.get("name", run_dir.name)
@@ -520,11 +562,17 @@ def _suite_totals_cells(totals: dict) -> list[tuple[object, str]]:
 def build_suite_report(suite_dir: Path) -> Path:
     """Write each run's report and ``suite_dir/report.html`` (one row per scenario)."""
     suite_dir = Path(suite_dir)
-    summary = read_summary(suite_dir)
+    summary = _read_summary(suite_dir)
     runs = summary.get("runs") or {}
+    if not isinstance(runs, dict):
+        raise ReportError(f"{suite_dir / SUMMARY_FILE}: runs: expected a mapping, got {type(runs).__name__}")
     rows = []
     for name, entry in runs.items():
         rel = str((entry or {}).get("dir") or name) if isinstance(entry, dict) else str(name)
+        target = (suite_dir / rel).resolve()
+        if target == suite_dir.resolve() or suite_dir.resolve() not in target.parents:
+            raise ReportError(f"{suite_dir / SUMMARY_FILE}: runs.{name}.dir {rel!r:.80} is not a directory inside "
+                              f"{suite_dir}; refusing to write a report there")
         rd = RunDir(suite_dir / rel)
         if not rd.has(TICKS_FILE):
             log.warning("%s: run directory missing, skipped", rd.path)
@@ -554,6 +602,14 @@ def build_suite_report(suite_dir: Path) -> Path:
     return out
 
 
+def _read_summary(out_dir: Path) -> dict:
+    """``summary.json`` (``read_summary``), a binary one a ``ReportError`` naming it."""
+    try:
+        return read_summary(out_dir)
+    except UnicodeDecodeError:
+        raise ReportError(f"{Path(out_dir) / SUMMARY_FILE}: not UTF-8 text (a binary file?)") from None
+
+
 def build_report(path: Path) -> Path:
     """``report.html`` for a run directory (``ticks.jsonl``) or a suite directory
     (``summary.json``); returns its path. Raises ``ReportError`` for anything else."""
@@ -563,5 +619,6 @@ def build_report(path: Path) -> Path:
     if (path / TICKS_FILE).is_file():
         return build_run_report(path)
     if (path / SUMMARY_FILE).is_file():
+        _read_summary(path)  # a binary or non-object file: one line naming it, whichever report reads it
         return build_sweep_report(path) if is_sweep_dir(path) else build_suite_report(path)
     raise ReportError(f"{path}: not a run directory (no ticks.jsonl) or a suite directory (no summary.json)")

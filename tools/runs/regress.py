@@ -13,6 +13,7 @@ AEB scoring still fails on the first false AEB activation.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 #: metric path -> (direction, tolerance): "up" = higher is better; the tolerance is absolute.
@@ -96,15 +97,34 @@ class BaselineError(ValueError):
     """A baseline file that cannot be used; one line."""
 
 
+MAX_BASELINE_BYTES = 16 * 2**20
+
+
 def load_baseline(path: Path) -> dict:
     try:
-        data = json.loads(Path(path).read_text())
+        if Path(path).stat().st_size > MAX_BASELINE_BYTES:
+            raise BaselineError(f"{path}: more than {MAX_BASELINE_BYTES} bytes, not a baseline")
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise FileNotFoundError(f"{path}: no such baseline file (create it with --update-baseline)") from None
     except json.JSONDecodeError as e:
         raise BaselineError(f"{path}:{e.lineno}: baseline is not valid JSON ({e.msg})") from None
+    except UnicodeDecodeError as e:
+        raise BaselineError(f"{path}: baseline is not UTF-8 text (byte {e.start})") from None
+    except RecursionError:
+        raise BaselineError(f"{path}: baseline JSON is nested too deeply") from None
     if not isinstance(data, dict) or not isinstance(data.get("metrics"), dict):
         raise BaselineError(f"{path}: baseline needs a 'metrics' mapping")
+    for key, v in data["metrics"].items():  # null: the metric had no value (no such objects)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v)):
+            raise BaselineError(f"{path}: metrics.{key}: expected a finite number or null, got {v!r:.40}")
+    tolerances = data.get("tolerances", {})
+    if not isinstance(tolerances, dict):
+        raise BaselineError(f"{path}: tolerances: expected a mapping of metric -> [up|down, limit]")
+    for key, v in tolerances.items():
+        if not (isinstance(v, list) and len(v) == 2 and v[0] in ("up", "down") and isinstance(v[1], int | float)
+                and not isinstance(v[1], bool) and math.isfinite(v[1]) and v[1] >= 0):
+            raise BaselineError(f"{path}: tolerances.{key}: expected [up|down, limit >= 0], got {v!r:.40}")
     return data
 
 

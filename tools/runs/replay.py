@@ -51,7 +51,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from lookahead.intent.config import deep_merge
 from lookahead.intent.stack import build_stack
@@ -59,12 +59,14 @@ from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
 from lookahead.perception.frame import EgoOdometry, Frame
+from lookahead.perception.safe_yaml import first_non_finite
 from lookahead.sim.aeb import Aeb
 from lookahead.sim.records import jsonable
 from lookahead.sim.runner import camera_from_scenario
-from lookahead.sim.scenario import Scenario
+from lookahead.sim.scenario import Scenario, field_path
 from lookahead.tools.runs.suite import read_yaml
 from lookahead.tools.scoring.intent import aeb_brake_of
+from lookahead.tools.scoring.io import MAX_TICK, run_record, ticks_records
 from lookahead.tools.scoring.run import score_run
 from lookahead.tools.scoring.totals import RunFrames, suite_totals
 from lookahead.tools.sinks.rundir import (
@@ -86,6 +88,13 @@ from lookahead.tools.sinks.rundir import (
 log = logging.getLogger(__name__)
 
 REPLAY_STAGES = ("preprocess", "detect", "track", "estimate", "intent", "tick")
+#: The sections a replay config may override (``--config``).
+OVERRIDE_SECTIONS = ("tracker", "estimator", "intent", "alerts")
+
+
+class ReplayError(ValueError):
+    """A replay that cannot run on its input (config, recorded run); one line naming the file
+    (and line, for ``ticks.jsonl``) and the field."""
 
 
 class Perturbation(BaseModel):
@@ -182,10 +191,95 @@ def _odometry(ego: dict) -> EgoOdometry:
     return EgoOdometry(speed=f("speed"), accel=f("accel"), yaw_rate=f("yaw_rate"))
 
 
+def _finite(value: object, what: str) -> float:
+    if not isinstance(value, int | float) or isinstance(value, bool) or not np.isfinite(value):
+        raise ValueError(f"{what}: expected a finite number, got {value!r:.40}")
+    return float(value)
+
+
+def _recorded_frames(source: RunDir) -> list[tuple[dict, float, dict, Detections, int, int]]:
+    """Every record of ``ticks.jsonl`` with what the replay reads of it parsed: (record, t, ego,
+    detections, tick, frame index). All are read before anything is written; a binary file or a
+    record of the wrong shape is a ``RunDirError`` / ``ReplayError`` naming ``file:line``."""
+    frames = []
+    for i, rec in enumerate(ticks_records(source)):  # binary: RunDirError naming file:line
+        try:
+            if "t" not in rec:
+                raise ValueError("t: missing")
+            t = _finite(rec["t"], "t")
+            ego = rec.get("ego") or {}
+            if not isinstance(ego, dict):
+                raise ValueError(f"ego: expected an object, got {type(ego).__name__}")
+            for key in ("speed", "accel", "yaw_rate"):
+                if ego.get(key) is not None:
+                    _finite(ego[key], f"ego.{key}")
+            dets = rec.get("detections")
+            if dets is not None and not isinstance(dets, dict):
+                raise ValueError(f"detections: expected an object or null, got {type(dets).__name__}")
+            try:
+                parsed = _detections(dets)
+            except KeyError as e:
+                raise ValueError(f"detections.{e.args[0]}: missing") from None
+            except (TypeError, ValueError, OverflowError) as e:
+                raise ValueError(f"detections: {' '.join(str(e).split())}") from None
+            tick, index = rec.get("tick", 0), rec.get("frame", i)
+            if not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= MAX_TICK for v in (tick, index)):
+                raise ValueError(f"tick / frame: expected integers 0..{MAX_TICK}, got {tick!r:.20} / {index!r:.20}")
+        except (TypeError, ValueError, OverflowError) as e:
+            raise ReplayError(f"{source.where(i)}: {' '.join(str(e).split())}") from None
+        frames.append((rec, t, ego, parsed, tick, index))
+    return frames
+
+
 def load_scenario_of(run_dir: Path | RunDir) -> tuple[dict, Scenario]:
-    """``run.json`` of a run directory and the scenario it was run with."""
-    run = as_rundir(run_dir).run
-    return run, Scenario.model_validate(run["scenario"])
+    """``run.json`` of a run directory and the scenario it was run with; ``ReplayError`` naming
+    the file and field when it has none or a malformed one."""
+    rd = as_rundir(run_dir)
+    path = rd.file("run.json")
+    run = run_record(rd)  # binary, not an object, wrong shapes: RunDirError naming the file
+    if not isinstance(run.get("scenario"), dict):
+        raise ReplayError(f"{path}: scenario: missing (a replay runs the recorded scenario again)")
+    try:
+        return run, Scenario.model_validate(run["scenario"])
+    except ValidationError as e:
+        raise ReplayError(f"{path}: scenario.{_validation_message(e)}") from None
+
+
+def _validation_message(err: ValidationError, drop: tuple = ()) -> str:
+    """``field.path: message`` of a validation error's first error (``drop``: a leading location
+    to leave out, as ``perception`` for a replay config's ``tracker``)."""
+    first = err.errors()[0]
+    loc = tuple(first["loc"])
+    if drop and loc[: len(drop)] == drop:
+        loc = loc[len(drop):]
+    msg = first["msg"].removeprefix("Value error, ")
+    if first["type"] == "extra_forbidden":
+        msg = "unknown field"
+    elif "input" in first and first["type"] != "missing" and not isinstance(first["input"], dict | list):
+        msg += f", got {first['input']!r:.40}"
+    more = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
+    return f"{field_path(loc) or '(top level)'}: {msg}{more}"
+
+
+def read_overrides(config: str | Path) -> dict:
+    """A replay config (``--config``): a YAML mapping of ``OVERRIDE_SECTIONS``, each a mapping.
+    One-line ``ScenarioError`` (missing, too large, malformed YAML) or ``ReplayError`` (naming
+    the file and the section) when it is not."""
+    data = read_yaml(config, "replay config")
+    if not isinstance(data, dict):
+        raise ReplayError(f"{config}: expected a mapping of {' / '.join(OVERRIDE_SECTIONS)} overrides, "
+                          f"got {type(data).__name__}")
+    unknown = [str(k) for k in data if k not in OVERRIDE_SECTIONS]
+    if unknown:
+        raise ReplayError(f"{config}: unknown section(s) {', '.join(sorted(unknown))}; "
+                          f"expected {', '.join(OVERRIDE_SECTIONS)}")
+    for key, value in data.items():
+        if not isinstance(value, dict):
+            raise ReplayError(f"{config}: {key}: expected a mapping of settings, got {type(value).__name__}")
+    bad = first_non_finite(data)
+    if bad is not None:
+        raise ReplayError(f"{config}: {field_path(bad[0])}: expected a finite number, got {bad[1]!r}")
+    return data
 
 
 def replay_run(
@@ -194,21 +288,23 @@ def replay_run(
     perturb: Perturbation | None = None,
     overrides: dict | None = None,
     score: bool = True,
+    where: str = "replay overrides",
 ) -> dict:
     """Replay ``run_dir`` into ``out_dir``; returns the replay summary (and ``metrics`` when scored).
 
     ``overrides``: ``{"tracker": {...}, "estimator": {...}, "intent": {...},
     "alerts": {...}}`` merged over the scenario's settings (experiments; the
-    replay's ``run.json`` carries the resulting scenario).
+    replay's ``run.json`` carries the resulting scenario); ``where`` names them in errors
+    (the config file).
     """
     source, out_dir = RunDir(run_dir), Path(out_dir)
     run_dir = source.path
     source.file(TICKS_FILE)  # one-line error for a missing directory or ticks file
     if out_dir.resolve() == run_dir.resolve():
         raise OutputError(f"{out_dir}: the replay must go to another directory than its source")
-    records = source.ticks  # parsed once, before anything is written
+    records = _recorded_frames(source)  # parsed and checked once, before anything is written
     run, scenario = load_scenario_of(source)
-    scenario = _with_overrides(scenario, overrides or {})
+    scenario = _with_overrides(scenario, overrides or {}, where)
     perturb = perturb or Perturbation()
     camera = camera_from_scenario(scenario)
     detector = RecordedDetector()
@@ -223,15 +319,11 @@ def replay_run(
     t_start = time.perf_counter()
     with (out_dir / TICKS_FILE).open("w", encoding="utf-8") as fout, \
             (out_dir / TIMINGS_FILE).open("w", encoding="utf-8") as ftim:
-        for rec in records:  # each line copied with the outputs replaced
-            t = float(rec["t"])
-            ego = rec.get("ego") or {}
-            dets = _detections(rec.get("detections"))
+        for rec, t, ego, dets, tick, index in records:  # each line copied with the outputs replaced
             if perturber is not None:
                 dets = perturber(dets)
             detector.next = dets
-            frame = Frame(tick=int(rec.get("tick", 0)), t=t, camera=camera, odometry=_odometry(ego),
-                          index=int(rec.get("frame", frames)))
+            frame = Frame(tick=tick, t=t, camera=camera, odometry=_odometry(ego), index=index)
             timings: dict[str, float] = {}
             t0 = time.perf_counter()
             dets, tracks, est, assessment, alerts = stack.process(frame, None, timings)
@@ -272,13 +364,18 @@ def replay_run(
     return result
 
 
-def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
-    unknown = set(overrides) - {"tracker", "estimator", "intent", "alerts"}
+def _with_overrides(scenario: Scenario, overrides: dict, where: str = "replay overrides") -> Scenario:
+    """``scenario`` with ``overrides`` merged in; ``ReplayError`` naming ``where`` (the config file)
+    and the field for an unknown section or field or a wrong value."""
+    unknown = set(overrides) - set(OVERRIDE_SECTIONS)
     if unknown:
-        raise ValueError(f"replay overrides: unknown section(s) {sorted(unknown)}; "
-                         "expected tracker, estimator, intent, alerts")
+        raise ReplayError(f"{where}: unknown section(s) {', '.join(sorted(map(str, unknown)))}; "
+                          f"expected {', '.join(OVERRIDE_SECTIONS)}")
     if not overrides:
         return scenario
+    bad = next((k for k, v in overrides.items() if not isinstance(v, dict)), None)
+    if bad is not None:
+        raise ReplayError(f"{where}: {bad}: expected a mapping of settings, got {type(overrides[bad]).__name__}")
     data = scenario.model_dump(mode="json")
     for key in ("tracker", "estimator"):
         if key in overrides:
@@ -287,7 +384,12 @@ def _with_overrides(scenario: Scenario, overrides: dict) -> Scenario:
         data["intent"] = deep_merge(data.get("intent") or {}, overrides["intent"])
     if "alerts" in overrides:
         data["alerts"] = deep_merge(data.get("alerts") or {}, overrides["alerts"])
-    return Scenario.model_validate(data)
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as e:
+        raise ReplayError(f"{where}: {_validation_message(e, drop=('perception',))}") from None
+    except (TypeError, ValueError) as e:  # a validator's own error
+        raise ReplayError(f"{where}: {' '.join(str(e).split())}") from None
 
 
 def is_suite_dir(path: Path) -> bool:
@@ -296,16 +398,20 @@ def is_suite_dir(path: Path) -> bool:
 
 def replay_suite(
     suite_dir: Path, out: Path, perturb: Perturbation | None = None, overrides: dict | None = None,
-    progress=None,
+    progress=None, where: str = "replay overrides",
 ) -> dict:
     """Replay every run of a suite directory into ``out``; writes ``out/summary.json`` like
     ``lookahead suite`` (totals: ``tools.scoring.totals.suite_totals``)."""
     suite_dir, out = Path(suite_dir), Path(out)
     src = read_summary(suite_dir)
+    runs = src.get("runs")
+    if not isinstance(runs, dict) or not all(isinstance(r, dict) and isinstance(r.get("dir"), str)
+                                             for r in runs.values()):
+        raise ReplayError(f"{suite_dir / SUMMARY_FILE}: runs: expected a mapping of runs, each with its dir")
     prepare_dir(out)
     results = []
-    for name, r in src["runs"].items():
-        res = replay_run(suite_dir / r["dir"], out / r["dir"], perturb, overrides)
+    for name, r in runs.items():
+        res = replay_run(suite_dir / r["dir"], out / r["dir"], perturb, overrides, where=where)
         res["dir_name"] = r["dir"]
         results.append(res)
         if progress:
@@ -326,14 +432,11 @@ def replay_suite(
 
 def replay_command(source: Path, out: Path, perturb: Perturbation, config: Path | None = None) -> dict:
     """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides."""
-    overrides = None
-    if config is not None:
-        overrides = read_yaml(config, "replay config")
-        if not isinstance(overrides, dict):
-            raise ValueError(f"{config}: expected a mapping of tracker / estimator / intent / alerts overrides")
+    overrides = None if config is None else read_overrides(config)
+    where = str(config) if config is not None else "replay overrides"
     source = Path(source)
     if not source.exists():
         raise FileNotFoundError(f"{source}: no such run or suite directory")
     if is_suite_dir(source):
-        return replay_suite(source, out, perturb, overrides)
-    return replay_run(source, out, perturb, overrides)
+        return replay_suite(source, out, perturb, overrides, where=where)
+    return replay_run(source, out, perturb, overrides, where=where)

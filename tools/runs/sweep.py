@@ -38,13 +38,24 @@ variants (``OUT/sweep.sqlite``, one run per variant), ``OUT/summary.json``
 (per-variant parameters, status, key metrics; ``totals`` pooled from the
 variants' metrics by ``tools.scoring.totals.sweep_totals``) and ``OUT/report.html``
 (``tools.reports.sweep``). A variant is done when its ``run.json`` says
-``complete: true`` with the variant's ``config_hash`` and its ``metrics.json`` exists; a re-run skips done variants and re-runs the rest
-(their directories and store rows are removed first). A variant that raises is
-``failed`` with a one-line error and does not stop the others.
+``complete: true`` with the variant's ``config_hash``, its ``metrics.json`` exists
+and the store holds a complete run of it (its run directory, the same config hash);
+a re-run skips done variants and re-runs the rest (their directories and store rows
+are removed first). A variant that raises is ``failed`` with a one-line error and
+does not stop the others.
+
+Killed sweeps and resumes: the store keeps exactly one run per variant directory.
+``settle_store`` deletes every other one (half-written by a killed sweep, written
+twice by a late worker, rows that outlived their run) in one transaction, before
+the variants run and again after the last one has finished. Pool workers end with
+the sweep's main process, also when it is SIGKILLed (``die_with_parent``: Linux's
+parent-death signal plus a parent-pid poll), so none is left running or writing;
+multiprocessing's resource tracker then sees its pipe close and exits too.
 """
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
 import itertools
 import json
@@ -53,6 +64,10 @@ import math
 import os
 import re
 import shutil
+import signal
+import sqlite3
+import sys
+import threading
 import time
 import types
 import typing
@@ -120,13 +135,19 @@ class Uniform(Strict):
 
     @model_validator(mode="after")
     def _order(self) -> Uniform:
-        if not self.uniform[0] <= self.uniform[1]:
+        low, high = self.uniform
+        if not (math.isfinite(low) and math.isfinite(high) and math.isfinite(high - low)):
+            raise ValueError(f"uniform: expected finite [low, high], got {list(self.uniform)}")
+        if not low <= high:
             raise ValueError("uniform: expected [low, high] with low <= high")
         return self
 
 
+_INT64 = Annotated[int, Field(ge=-(2**63), le=2**63 - 1)]
+
+
 class RandInt(Strict):
-    randint: tuple[int, int] = Field(description="[low, high], both inclusive")
+    randint: tuple[_INT64, _INT64] = Field(description="[low, high], both inclusive")
 
     @model_validator(mode="after")
     def _order(self) -> RandInt:
@@ -137,6 +158,20 @@ class RandInt(Strict):
 
 class Choice(Strict):
     choice: list[Any] = Field(min_length=1)
+
+    @model_validator(mode="after")
+    def _values(self) -> Choice:
+        for i, v in enumerate(self.choice):
+            _check_value(f"item {i}", v)
+        return self
+
+
+def _check_value(where: str, value: Any) -> None:
+    """A parameter value a variant can take (``_norm``: JSON-able, finite); else ValueError naming ``where``."""
+    try:
+        _norm(value)
+    except ValueError as e:
+        raise ValueError(f"{where}: {e}") from None
 
 
 def _dist_kind(v: Any) -> str | None:
@@ -180,6 +215,10 @@ class SweepSpec(Strict):
         for path, values in self.grid.items():
             if not values:
                 raise ValueError(f"grid: {path}: expected a non-empty list of values")
+            for i, v in enumerate(values):
+                _check_value(f"grid: {path}[{i}]", v)
+        for path, v in self.set.items():
+            _check_value(f"set: {path}", v)
         sampled = set(self.samples.params) if self.samples else set()
         for a, b, what in ((self.grid, sampled, "grid and samples"), (self.set, set(self.grid) | sampled,
                                                                         "set and grid/samples")):
@@ -404,6 +443,11 @@ def apply_params(base: dict, params: dict[str, Any]) -> tuple[dict, dict[str, tu
             raise ParamError(path, str(e)) from None
         container[key] = value
         locs[path] = loc
+    first: dict[tuple, str] = {}
+    for path, loc in locs.items():
+        if loc in first:
+            raise ParamError(path, f"sets the same scenario field as {first[loc]}")
+        first[loc] = path
     for path, idx, value in later:
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise ParamError(path, f"expected a number (m, left +), got {value!r}")
@@ -425,13 +469,14 @@ def _norm(v: Any) -> Any:
         return v
     if isinstance(v, float):
         if not math.isfinite(v):
-            raise ValueError(f"non-finite value {v!r}")
+            raise ValueError(f"expected a finite number, got {v!r}")
         return int(v) if v.is_integer() else v
     if isinstance(v, list | tuple):
         return [_norm(x) for x in v]
     if isinstance(v, dict):
         return {str(k): _norm(x) for k, x in v.items()}
-    raise ValueError(f"unsupported value {v!r} ({type(v).__name__})")
+    raise ValueError(f"unsupported value {v!r:.60} ({type(v).__name__}); expected a number, string, "
+                     "boolean, null, list or mapping")
 
 
 def _short(path: str) -> str:
@@ -528,6 +573,10 @@ def expand(spec: SweepSpec, base: Scenario, sweep_file: str = "<sweep>") -> list
             data, locs = apply_params(fixed, params)
         except ParamError as e:
             raise SweepError(f"{sweep_file}: {section[e.path]}: {e}") from None
+        for k, loc in locs.items():
+            also = next((s for s, sloc in set_locs.items() if sloc == loc), None)
+            if also is not None:
+                raise SweepError(f"{sweep_file}: {section[k]}: {k}: sets the same scenario field as set: {also}")
         data["name"] = f"{base.name}[{vid}]"
         try:
             sc = Scenario.model_validate(data)
@@ -578,8 +627,56 @@ def one_line(exc: BaseException) -> str:
     return text if len(text) <= 400 else text[:397] + "..."
 
 
+#: How often (s) a pool worker checks that the process that started it is still alive.
+PARENT_POLL_S = 0.5
+_PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def _arm_parent_death_signal() -> bool:
+    """Linux: have the kernel SIGKILL this process when the thread that started it exits."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, ctypes.c_ulong(signal.SIGKILL), ctypes.c_ulong(0),
+                          ctypes.c_ulong(0), ctypes.c_ulong(0)) == 0
+    except (OSError, AttributeError):  # no libc symbols (static or exotic builds): the poll still works
+        return False
+
+
+def die_with_parent(parent_pid: int, pdeathsig: bool = True) -> None:
+    """Make this (worker) process end when ``parent_pid``, the process that started it, ends.
+
+    ``pdeathsig`` (Linux only): ``prctl(PR_SET_PDEATHSIG, SIGKILL)``, immediate, even in C code.
+    The kernel sends it when the *thread* that forked this process exits, so it may only be armed
+    when that thread lives as long as the process (``new_pool`` arms it when it runs on the main
+    thread and starts its workers there). Everywhere: a daemon thread compares ``os.getppid()``
+    with ``parent_pid`` every ``PARENT_POLL_S`` s (a dead parent's children are re-parented) and
+    ends the process with ``os._exit``. Checked once now too: the parent may already be gone.
+    """
+    if pdeathsig:
+        _arm_parent_death_signal()
+    if os.getppid() != parent_pid:
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(PARENT_POLL_S)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="lookahead-parent-watch", daemon=True).start()
+
+
+def init_worker(parent_pid: int | None = None, pdeathsig: bool = False) -> None:
+    """Pool initializer: end with the parent process (``die_with_parent``), then ``warm_worker``."""
+    if parent_pid is not None:
+        die_with_parent(parent_pid, pdeathsig)
+    warm_worker()
+
+
 def warm_worker() -> None:
-    """Pool initializer: import the loop and the scorer before the first variant arrives."""
+    """Import the loop and the scorer before the first variant arrives."""
     # lazy on purpose: importing these in each worker, before its first variant, is this function's job
     import lookahead.sim.runner  # noqa: F401
     import lookahead.tools.runs.suite  # noqa: F401
@@ -616,28 +713,111 @@ def is_complete(run_dir: Path | RunDir, scenario: Scenario) -> bool:
     return bool(run.get("complete")) and run.get("config_hash") == config_hash(scenario) and rd.has(METRICS_FILE)
 
 
+#: What ``settle_store`` keeps of a variant directory's store runs.
+KEEP_NONE = "none"  # nothing: the variant is to run (again)
+KEEP_LATEST = "latest"  # the newest run, complete or not (a failed variant's record)
+_CHUNK = 500  # ids per DELETE ... IN (...) (SQLite's variable limit is 999 in old builds)
+
+
+def _run_tables(conn: sqlite3.Connection) -> list[str]:
+    """The store's tables with a ``run_id`` column (rows belonging to a run)."""
+    tables = [r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
+    return [t for t in tables if t != "runs"
+            and "run_id" in {c[1] for c in conn.execute(f"PRAGMA table_info({t})")}]
+
+
+def _delete_runs(conn: sqlite3.Connection, ids: list[int], tables: list[str]) -> None:
+    for i in range(0, len(ids), _CHUNK):
+        part = ids[i: i + _CHUNK]
+        marks = ",".join("?" * len(part))
+        for t in tables:
+            conn.execute(f"DELETE FROM {t} WHERE run_id IN ({marks})", part)
+        conn.execute(f"DELETE FROM runs WHERE id IN ({marks})", part)
+
+
+def settle_store(db: Path, keep: dict[Path, str]) -> dict[Path, int | None]:
+    """Leave at most one store run per variant directory; returns the run id kept for each.
+
+    ``keep[run_dir]``: ``KEEP_NONE`` (delete every run written into it), ``KEEP_LATEST`` (keep the
+    newest), or a config hash (keep the newest *complete* run of that scenario, delete the
+    rest). Runs of other directories are left alone, except rows of runs that no longer exist
+    (a killed or late worker that went on writing after its run was deleted), which are deleted.
+    One ``BEGIN IMMEDIATE`` transaction: nothing is half-deleted, and a worker's commit lands
+    before or after it, never in between. Only call it while no worker of this sweep runs.
+    """
+    conn = open_db(db)
+    try:
+        conn.execute("BEGIN IMMEDIATE")
+        try:
+            rows: dict[str, list[tuple[int, int, str | None]]] = {}
+            wanted = {str(d) for d in keep}
+            for rid, run_dir, complete, chash in conn.execute(
+                    "SELECT id, run_dir, complete, config_hash FROM runs ORDER BY id"):
+                if run_dir in wanted:
+                    rows.setdefault(run_dir, []).append((int(rid), int(complete), chash))
+            kept: dict[Path, int | None] = {}
+            drop: list[int] = []
+            for d, rule in keep.items():
+                have = rows.get(str(d), [])
+                if rule == KEEP_NONE:
+                    good = []
+                elif rule == KEEP_LATEST:
+                    good = have[-1:]
+                else:
+                    good = [r for r in have if r[1] and r[2] == rule][-1:]
+                kept[d] = good[0][0] if good else None
+                drop += [r[0] for r in have if r[0] != kept[d]]
+            tables = _run_tables(conn)
+            if "frames" in tables:  # every batch writes frames: runs whose rows outlived them
+                drop += [r[0] for r in conn.execute(
+                    "SELECT DISTINCT run_id FROM frames WHERE run_id NOT IN (SELECT id FROM runs)")]
+            if drop:
+                _delete_runs(conn, sorted(set(drop)), tables)
+            conn.execute("COMMIT")
+        except BaseException:
+            conn.execute("ROLLBACK")
+            raise
+        if drop:
+            log.info("%s: deleted %d stale, duplicate or orphaned run(s)", db, len(set(drop)))
+        return kept
+    finally:
+        conn.close()
+
+
+def todo_variants(out: Path, variants: list[Variant], db: Path | None = None) -> list[Variant]:
+    """The variants a (re-)run of the sweep in ``out`` would run, as ``run_sweep`` decides it, but
+    read-only (for listings such as ``--dry-run``): not done = no complete run directory of this
+    scenario, or no complete store run of it (``db``, default ``out/sweep.sqlite``)."""
+    out = Path(out).resolve()
+    db = (Path(db) if db is not None else out / DB_FILE).resolve()
+    stored: set[tuple[str, str]] = set()
+    if db.is_file():
+        conn = open_db(db, create=False)
+        try:
+            stored = {(r[0], r[1]) for r in conn.execute(
+                "SELECT run_dir, config_hash FROM runs WHERE complete = 1 AND run_dir IS NOT NULL")}
+        finally:
+            conn.close()
+    todo = []
+    for v in variants:
+        d = out / RUNS_DIR / v.id
+        if not (is_complete(d, v.scenario) and (str(d), config_hash(v.scenario)) in stored):
+            todo.append(v)
+    return todo
+
+
 def forget_runs(db: Path, run_dirs: list[Path]) -> int:
     """Delete the store's rows of runs written into ``run_dirs`` (stale or killed runs)."""
     if not run_dirs:
         return 0
     conn = open_db(db)
     try:
-        dirs = [str(d) for d in run_dirs]
-        marks = ",".join("?" * len(dirs))
-        ids = [r[0] for r in conn.execute(f"SELECT id FROM runs WHERE run_dir IN ({marks})", dirs)]
-        if not ids:
-            return 0
-        tables = [r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")]
-        id_marks = ",".join("?" * len(ids))
-        with conn:
-            for t in tables:
-                cols = [c[1] for c in conn.execute(f"PRAGMA table_info({t})")]
-                if t != "runs" and "run_id" in cols:
-                    conn.execute(f"DELETE FROM {t} WHERE run_id IN ({id_marks})", ids)
-            conn.execute(f"DELETE FROM runs WHERE id IN ({id_marks})", ids)
-        return len(ids)
+        dirs = {str(d) for d in run_dirs}
+        ids = [int(r[0]) for r in conn.execute("SELECT id, run_dir FROM runs") if r[1] in dirs]
     finally:
         conn.close()
+    settle_store(db, dict.fromkeys(run_dirs, KEEP_NONE))
+    return len(ids)
 
 
 def _run_pool(pool, jobs: list[dict], on_result: Callable[[dict], None]) -> None:
@@ -651,8 +831,18 @@ def _run_pool(pool, jobs: list[dict], on_result: Callable[[dict], None]) -> None
 
 
 def new_pool(workers: int):
-    """A ``spawn`` process pool whose workers import the loop up front."""
-    return ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=warm_worker)
+    """A ``spawn`` pool of ``workers`` processes, started now, that import the loop up front and
+    end with this process (``die_with_parent``: also after a SIGKILL, which runs no cleanup).
+
+    The workers are started here, by this thread (one no-op job each: a spawn pool starts a
+    process per job submitted while none is idle), so that the Linux parent-death signal, armed
+    when this is the main thread, follows the process, not a thread that may end before it."""
+    main = threading.current_thread() is threading.main_thread()
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=init_worker,
+                               initargs=(os.getpid(), main))
+    for _ in range(workers):
+        pool.submit(os.getpid)
+    return pool
 
 
 def import_ray():
@@ -734,8 +924,12 @@ def run_sweep(
     runs = out / RUNS_DIR
     db = (Path(db) if db is not None else out / DB_FILE).resolve()
     open_db(db).close()  # fail before running anything; creates the schema once
-    pending = [v for v in variants if not is_complete(runs / v.id, v.scenario)]
-    forget_runs(db, [runs / v.id for v in pending])
+    # done = complete run directory and its complete store run; everything else runs again, and
+    # the store keeps no other run of a variant (a killed sweep's half-written or late runs)
+    keep = {runs / v.id: config_hash(v.scenario) if is_complete(runs / v.id, v.scenario) else KEEP_NONE
+            for v in variants}
+    kept = settle_store(db, keep)
+    pending = [v for v in variants if kept[runs / v.id] is None]
     jobs = []
     for v in pending:
         d = runs / v.id
@@ -764,9 +958,12 @@ def run_sweep(
             on_result(run_variant(**job))
     else:
         backend = "pool"
-        with new_pool(workers) as pool:
+        with new_pool(min(workers, len(jobs))) as pool:
             _run_pool(pool, jobs, on_result)
     elapsed = time.perf_counter() - t0
+    if jobs:  # every worker is done: one store run per variant whatever was written twice
+        settle_store(db, {runs / v.id: config_hash(v.scenario) if is_complete(runs / v.id, v.scenario)
+                          else KEEP_LATEST for v in variants})
     summary = gather(out, spec, sweep_path, base_path, variants, results, render=render, db=db, aeb=aeb)
     summary.update(backend=backend, workers=workers, elapsed_s=round(elapsed, 3))
     write_summary(out, summary)

@@ -25,6 +25,10 @@ from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Label
 from lookahead.perception.tracker import TrackState
 from lookahead.tools.sinks.rundir import (
+    METRICS_FILE,
+    RUN_FILE,
+    TICKS_FILE,
+    TIMINGS_FILE,
     RunDir,
     RunDirError,
     as_rundir,
@@ -227,23 +231,125 @@ def _empty_tracks() -> TrackFrame:
     return TrackFrame(zi, np.zeros((0, 4)), zi, z, zb, z, np.zeros((0, 2)), z, zb, zb)
 
 
+def _not_text(path: Path) -> RunDirError:
+    """The error for a file that is not UTF-8 text: its first such line named (``file:line``)."""
+    try:
+        with path.open("rb") as fh:
+            for lineno, line in enumerate(fh, start=1):
+                try:
+                    line.decode("utf-8")
+                except UnicodeDecodeError:
+                    return RunDirError(f"{path}:{lineno}: not UTF-8 text (a binary file?)")
+    except OSError:
+        pass
+    return RunDirError(f"{path}: not UTF-8 text (a binary file?)")
+
+
+def ticks_records(run: RunDir | Path) -> list[dict]:
+    """``RunDir.ticks``, with a binary ``ticks.jsonl`` a ``RunDirError`` naming the file and line."""
+    rd = as_rundir(run)
+    try:
+        return rd.ticks
+    except UnicodeDecodeError:
+        raise _not_text(rd.path / TICKS_FILE) from None
+
+
+def check_text(path: Path) -> None:
+    """``RunDirError`` naming ``path`` and its first such line when it exists and is not UTF-8 text
+    (for the small files of a run directory read elsewhere: ``metrics.json``, ``timings.jsonl``)."""
+    try:
+        data = Path(path).read_bytes()
+    except (FileNotFoundError, IsADirectoryError, NotADirectoryError):
+        return
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise _not_text(Path(path)) from None
+
+
+#: run.json's keys read as mappings (``scenario.ego``: a key of ``scenario``), and lists
+_RUN_MAPPINGS = ("scenario", "summary", "replay")
+_SCENARIO_MAPPINGS = ("ego", "camera", "perception")
+_SCENARIO_LISTS = ("expect", "actors")
+_SCENARIO_TEXT = ("name", "description")
+
+
+def run_record(run: RunDir | Path) -> dict:
+    """``run.json`` of a run directory ({} when it has none), checked for the shape its readers
+    (scoring, reports) expect: one-line ``RunDirError`` naming the file and the key for a file
+    that is binary, not a JSON object, or whose ``scenario`` / ``summary`` / ``scenario.ego``
+    is not a mapping (``scenario.expect`` not a list, ``scenario.name`` not text)."""
+    rd = as_rundir(run)
+    if not rd.has(RUN_FILE):
+        return {}
+    path = rd.path / RUN_FILE
+    try:
+        data = rd.run
+    except UnicodeDecodeError:
+        raise _not_text(path) from None
+    except RecursionError:
+        raise RunDirError(f"{path}: nested too deeply") from None
+
+    def check(obj: dict, key: str, kind: type | tuple[type, ...], what: str, where: str) -> None:
+        value = obj.get(key)
+        if value is not None and not isinstance(value, kind):
+            raise RunDirError(f"{path}: {where}{key}: expected {what}, got {type(value).__name__}")
+
+    for key in _RUN_MAPPINGS:
+        check(data, key, dict, "a mapping", "")
+    scenario = data.get("scenario") or {}
+    for key in _SCENARIO_MAPPINGS:
+        check(scenario, key, dict, "a mapping", "scenario.")
+    for key in _SCENARIO_LISTS:
+        check(scenario, key, list, "a list", "scenario.")
+    for key in _SCENARIO_TEXT:
+        check(scenario, key, str, "text", "scenario.")
+    for i, e in enumerate(scenario.get("expect") or []):
+        if not isinstance(e, dict):
+            raise RunDirError(f"{path}: scenario.expect[{i}]: expected a mapping, got {type(e).__name__}")
+    return data
+
+
 def load_run(run: RunDir | Path) -> RunData:
     """The frames of a run directory's ``ticks.jsonl`` (kept on the ``RunDir``: built once).
 
+    ``run.json``, when there is one, is checked too (``run_record``), and ``timings.jsonl`` and
+    ``metrics.json`` are checked to be text (``check_text``): the scorers after this one read them.
+
     Raises:
         FileNotFoundError / NotADirectoryError: no such run directory or no ticks file.
-        RunDirError: a line that is not a JSON object or whose arrays are malformed
-            (message ``<file>:<line>: ...``).
+        RunDirError: a line that is not a JSON object (or not text) or whose arrays are malformed
+            (message ``<file>:<line>: ...``); a malformed ``run.json`` (``run_record``).
     """
-    return as_rundir(run).derived("scoring.RunData", _build_run)
+    rd = as_rundir(run)
+    data = rd.derived("scoring.RunData", _build_run)
+    run_record(rd)
+    for name in (TIMINGS_FILE, METRICS_FILE):  # read after this by the scorers, as text
+        check_text(rd.path / name)
+    return data
+
+
+#: Largest ``tick`` / ``frame`` number of a record (a day at 100 ticks/s): readers that index by
+#: them (replay, report key frames) never see one that would ask for gigabytes.
+MAX_TICK = 10**7
+
+
+def check_counters(rec: dict, where: str) -> None:
+    """``RunDirError`` at ``where`` when a record's ``tick`` or ``frame`` is not an integer in 0..``MAX_TICK``
+    (absent or null is fine)."""
+    for key in ("tick", "frame"):
+        v = rec.get(key)
+        if v is not None and not (isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= MAX_TICK):
+            raise RunDirError(f"{where}: {key}: expected an integer 0..{MAX_TICK}, got {v!r:.40}")
 
 
 def _build_run(rd: RunDir) -> RunData:
     gts: list[GTFrame] = []
     dets: list[DetFrame] = []
     tracks: list[TrackFrame | None] = []
-    for i, rec in enumerate(rd.ticks):
+    for i, rec in enumerate(ticks_records(rd)):
         where = rd.where(i)
+        check_counters(rec, where)
         gts.append(_parse_gt(rec.get("ground_truth"), f"{where}: ground_truth"))
         dets.append(_parse_dets(rec.get("detections"), f"{where}: detections"))
         tracks.append(_parse_tracks(rec.get("tracks"), f"{where}: tracks", rec.get("assessments")))

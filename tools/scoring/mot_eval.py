@@ -26,6 +26,7 @@ from trackeval.metrics import CLEAR, HOTA, Identity
 
 from lookahead.perception.geometry import grow_boxes, iou_matrix
 from lookahead.perception.mot import (
+    MAX_FRAME,
     MotRecords,
     from_boxes,
     iter_frames,
@@ -81,6 +82,7 @@ def build_sequence_data(
     num_frames: int | None = None,
     mot16_preprocess: bool | None = None,
     min_box: float = 0.0,
+    names: tuple[str, str] = ("ground truth", "tracker output"),
 ) -> dict:
     """The data dict TrackEval metrics' ``eval_sequence`` expects, for one sequence.
 
@@ -92,6 +94,7 @@ def build_sequence_data(
         min_box: boxes smaller than this (px) are grown about their centres to it
             before IoU (``tools.scoring.matching.MIN_MATCH_SIZE_PX``); 0 = plain IoU,
             the MOTChallenge definition.
+        names: what ``gt`` and ``tracks`` are called in errors (their files when read from files).
     """
     if num_frames is None:
         num_frames = max(gt.num_frames, tracks.num_frames)
@@ -102,8 +105,8 @@ def build_sequence_data(
     gt_ids, trk_ids, sims = [], [], []
     for f in range(1, num_frames + 1):
         g, k = gt_frames[f], trk_frames[f]
-        _check_unique(g.track_id, "ground truth", f)
-        _check_unique(k.track_id, "tracker output", f)
+        _check_unique(g.track_id, names[0], f)
+        _check_unique(k.track_id, names[1], f)
         sim = iou_matrix(grow_boxes(g.xyxy, min_box), grow_boxes(k.xyxy, min_box)) if min_box > 0 \
             else iou_matrix(g.xyxy, k.xyxy)
         if mot16_preprocess:
@@ -164,7 +167,9 @@ def evaluate_mot(
     Raises:
         ValueError: malformed rows (see ``read_mot``) or duplicate ids in a frame.
     """
-    data = build_sequence_data(_as_records(gt), _as_records(tracks), num_frames, mot16_preprocess, min_box)
+    names = tuple(f"{x}" if isinstance(x, str | Path) else what for x, what in
+                  ((gt, "ground truth"), (tracks, "tracker output")))
+    data = build_sequence_data(_as_records(gt), _as_records(tracks), num_frames, mot16_preprocess, min_box, names)
     cfg = {"THRESHOLD": iou_threshold, "PRINT_CONFIG": False}
     clear = CLEAR(dict(cfg)).eval_sequence(data)
     ident = Identity(dict(cfg)).eval_sequence(data)
@@ -302,6 +307,8 @@ def read_seqinfo(path: str | Path) -> SeqInfo:
         parser.read_string(path.read_text(encoding="utf-8"), source=str(path))
     except configparser.Error as exc:
         raise ValueError(f"{path}: not a seqinfo.ini ({str(exc).splitlines()[0]})") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{path}: not a seqinfo.ini (not UTF-8 text, byte {exc.start})") from None
     if not parser.has_section("Sequence"):
         raise ValueError(f"{path}: no [Sequence] section")
     sec = parser["Sequence"]
@@ -316,6 +323,8 @@ def read_seqinfo(path: str | Path) -> SeqInfo:
             value = float("nan")
         if not (np.isfinite(value) and value > 0):
             raise ValueError(f"{path}: {key}={text!r} is not a positive number")
+        if key == "seqLength" and value > MAX_FRAME:
+            raise ValueError(f"{path}: {key}={text!r} is more than {MAX_FRAME} frames")
         return kind(value) if kind is float else int(round(value))
 
     return SeqInfo(

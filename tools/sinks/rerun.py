@@ -17,14 +17,26 @@ frame index). Entities, all in the ego frame (ISO 8855: x forward, y left, z up)
 * ``alerts`` -- one text-log entry per alert event (CRITICAL / WARN / INFO);
   ``events`` -- collisions and the run summary.
 
-Needs rerun-sdk >= 0.23 (``rr.Scalars``, ``set_time(duration=...)``); tested with 0.41.
+Memory stays flat in run length: the ``.rrd`` is written without rerun's footer
+(``write_footer=False``; rerun keeps every chunk's manifest entry in memory until the
+footer is written at the end, about 13 KB per frame here), and the scalar series are
+sent every ``series_every`` frames. A footerless file is a valid RRD (the viewer, and
+``rerun.chunk.RrdReader(path).stream()``, read it whole; a killed run's file is one
+too); ``rerun rrd optimize`` adds the manifest afterwards, and ``footer=True`` writes
+it (for short runs).
+
+Needs rerun-sdk >= 0.23 (``rr.Scalars``, ``set_time(duration=...)``); ``write_footer``
+needs a recent one (tested with 0.41; older ones are called without it).
 Class ids follow ``perception.detections.CLASSES``; static obstacles (-1) are
 ``OBSTACLE_CLASS`` (an annotation context names and colours them all).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import cv2
@@ -47,6 +59,31 @@ EGO_BODY = (4.6, 1.85, 1.5)  # m, indicative length, width, height (the ego's fr
 _LEVELS = {"critical": "CRITICAL", "fcw": "WARN", "downgrade": "WARN", "clear": "INFO"}
 _RISK_RGB = np.asarray(RISK_COLOURS, dtype=np.uint8)
 
+
+
+@contextlib.contextmanager
+def _quiet_stderr() -> Iterator[None]:
+    """Silence C-level stderr (rerun's Rust log warns, on stderr, when a file has no footer)."""
+    try:
+        saved = os.dup(2)
+    except OSError:
+        yield
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(devnull)
+
+
+def _file_sink(path: Path, footer: bool) -> rr.FileSink:
+    try:
+        return rr.FileSink(str(path), write_footer=footer)
+    except TypeError:  # pragma: no cover - a rerun-sdk without the option (it writes a footer)
+        return rr.FileSink(str(path))
 
 
 def _class_ids(cid: np.ndarray) -> np.ndarray:
@@ -83,11 +120,14 @@ class RerunSink:
     ``path``: ``.rrd`` file to write (None: none); ``spawn``: also stream to a
     newly spawned viewer. ``jpeg_quality``: images are JPEG-encoded at this
     quality (about 3x smaller .rrd than raw RGB, which Rerun LZ4-compresses), None logs raw RGB.
+    ``footer``: write rerun's footer (chunk manifest) at the end; it costs memory that grows
+    with the run (see the module doc), so it is off by default.
     """
 
     def __init__(
         self, path: Path | None = None, spawn: bool = False, app_id: str = "lookahead",
         jpeg_quality: int | None = 85, recording_id: str | None = None, series_every: int = 10,
+        footer: bool = False,
     ) -> None:
         if path is None and not spawn:
             raise ValueError("RerunSink: give a path, spawn=True, or both")
@@ -100,11 +140,12 @@ class RerunSink:
         else:
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
+                sinks = [_file_sink(self.path, footer)]
                 if spawn:
                     rr.spawn(connect=False)
-                    self.rec.set_sinks(rr.FileSink(str(self.path)), rr.GrpcSink(), default_blueprint=blueprint)
-                else:
-                    self.rec.save(str(self.path), default_blueprint=blueprint)
+                    sinks.append(rr.GrpcSink())
+                with contextlib.nullcontext() if footer else _quiet_stderr():
+                    self.rec.set_sinks(*sinks, default_blueprint=blueprint)
             except (OSError, RuntimeError) as e:
                 raise OutputError(f"{self.path}: cannot write the Rerun recording ({e})") from None
         self._camera_logged = False

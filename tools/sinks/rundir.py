@@ -24,9 +24,11 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import math
 import os
 import platform
+import re
 import tempfile
 from collections.abc import Callable
 from functools import cached_property
@@ -51,6 +53,37 @@ T = TypeVar("T")
 
 class OutputError(RuntimeError):
     """An output path that cannot be written; ``str()`` is one line."""
+
+
+log = logging.getLogger(__name__)
+
+
+#: Longest file stem made from a name (``safe_file_stem``), before the frame suffix.
+MAX_STEM = 96
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]")
+
+
+def safe_file_stem(name: object, max_len: int = MAX_STEM) -> str:
+    """``name`` as a file or directory name of one path component: characters other than
+    ``[A-Za-z0-9._-]`` replaced by ``_``, leading dots dropped (no ``..``, no hidden file),
+    at most ``max_len`` characters. A name that is already such a stem is returned as it is;
+    any other gets ``-`` and 8 hex digits of a hash of the original appended, so two distinct
+    names give two distinct stems (``base[v=1]`` -> ``base_v_1_-<hash>``)."""
+    text = str(name)
+    stem = _UNSAFE.sub("_", text).lstrip(".")
+    if stem == text and 0 < len(stem) <= max_len:
+        return stem
+    digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+    return f"{stem[: max(1, max_len - 9)]}-{digest}" if stem else f"_-{digest}"
+
+
+def inside(root: Path, path: Path) -> Path:
+    """``path``, checked to resolve to a place inside ``root`` (``OutputError`` otherwise): no
+    output of an export lands outside ``--out`` whatever the names in its input."""
+    base, target = Path(root).resolve(), Path(path).resolve()
+    if target != base and base not in target.parents:
+        raise OutputError(f"{path}: outside the output directory {root}; refusing to write there")
+    return path
 
 
 class RunDirError(ValueError):
@@ -217,6 +250,7 @@ class RunDirWriter:
 
     def on_tick(self, record: TickRecord) -> None:
         self._ticks.write(tick_line(record.to_dict()))
+        self._ticks.flush()  # one write per frame: a killed run keeps every whole line written
         self._timings.append(record.timings)  # completed by the runner after the sinks return
         self.frames += 1
 
@@ -237,18 +271,26 @@ def read_jsonl(path: Path) -> tuple[list[dict], list[int]]:
     """The objects of a JSON-lines file and their line numbers (blank lines skipped).
 
     The one parser of ``ticks.jsonl`` and ``timings.jsonl``. Raises ``RunDirError``
-    ``<file>:<line>: ...`` for a line that is not a JSON object.
+    ``<file>:<line>: ...`` for a line that is not UTF-8 or not a JSON object. An unterminated
+    last line that does not parse is the torn end of a killed writer: it is dropped (logged).
     """
     records: list[dict] = []
     lines: list[int] = []
-    with Path(path).open("r", encoding="utf-8") as fh:
-        for lineno, line in enumerate(fh, start=1):
-            if not line.strip():
+    with Path(path).open("rb") as fh:
+        for lineno, raw in enumerate(fh, start=1):
+            if not raw.strip():
                 continue
             try:
-                rec = json.loads(line)
+                rec = json.loads(raw.decode("utf-8"))
+            except UnicodeDecodeError as e:
+                raise RunDirError(f"{path}:{lineno}: not UTF-8 text (byte {e.start})") from None
             except json.JSONDecodeError as e:
+                if not raw.endswith(b"\n"):  # only the last line can lack one
+                    log.warning("%s:%d: dropped an unterminated last line (a killed writer's)", path, lineno)
+                    break
                 raise RunDirError(f"{path}:{lineno}: not valid JSON ({e.msg}, column {e.colno})") from None
+            except RecursionError:
+                raise RunDirError(f"{path}:{lineno}: JSON nested too deeply") from None
             if not isinstance(rec, dict):
                 raise RunDirError(f"{path}:{lineno}: expected a JSON object per line")
             records.append(rec)
@@ -261,6 +303,10 @@ def _read_json(path: Path, what: str = "") -> dict:
         data = json.loads(path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as e:
         raise RunDirError(f"{path}:{e.lineno}: not valid JSON ({e.msg}){what}") from None
+    except UnicodeDecodeError as e:
+        raise RunDirError(f"{path}: not UTF-8 text (byte {e.start}){what}") from None
+    except RecursionError:
+        raise RunDirError(f"{path}: JSON nested too deeply{what}") from None
     if not isinstance(data, dict):
         raise RunDirError(f"{path}: expected a JSON object")
     return data

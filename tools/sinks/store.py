@@ -17,13 +17,14 @@ Schema versions: 1 had label/behaviour/risk/in_path as ``tracks`` columns and no
 ``assessments`` table; 2 (current) moved them to ``assessments``. Files of
 another version are refused (one line), never migrated in place.
 
-Durability: WAL journal, ``synchronous=NORMAL`` (a killed process loses at
-most the uncommitted batch; an OS crash may lose the last commits too, never
-consistency). Rows are buffered in memory and written in one transaction when
-``batch_frames`` frames have accumulated (at the next ``on_tick``, so every
-frame's timings are complete) and at ``on_end``. ``runs.complete`` becomes 1
-only in ``on_end`` and only when the run summary carries no ``error`` (an exception that
-ended the run).
+Durability: WAL journal, ``synchronous=NORMAL``, one transaction per frame. A
+frame's rows are committed at the next ``on_tick`` (the runner completes a frame's
+timings after the sinks return) and at ``on_end``, so a killed process (SIGKILL)
+loses at most one frame, the last one received; an OS crash or power cut may also
+lose the last commits (WAL is only fsynced at checkpoints), never consistency.
+``batch_frames`` > 1 commits every that many frames instead (fewer commits, up to
+``batch_frames`` frames lost). ``runs.complete`` becomes 1 only in ``on_end`` and
+only when the run summary carries no ``error`` (an exception that ended the run).
 
 The schema version is ``PRAGMA user_version`` (``SCHEMA_VERSION``) and the file
 is tagged with ``PRAGMA application_id`` (``APPLICATION_ID``); any other file
@@ -34,6 +35,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import sqlite3
 from datetime import UTC, datetime
 from itertools import repeat
@@ -143,9 +145,10 @@ def _not_a_database(path: Path, exc: sqlite3.Error) -> str:
 def open_db(path: str | Path, create: bool = True) -> sqlite3.Connection:
     """Open (and with ``create`` initialise) a lookahead store; ``StoreError`` for anything else.
 
-    Nothing is written to a file that fails the checks. ``create=False`` opens read-only.
-    The connection is in autocommit mode (explicit ``BEGIN``/``COMMIT``). The file is only
-    ever read through SQLite (see ``_not_a_database`` for why).
+    Nothing is written to a file that fails the checks. ``create=False`` opens read-only
+    (``_open_readonly``: also in a directory this process cannot write). The connection is in
+    autocommit mode (explicit ``BEGIN``/``COMMIT``). The file is only ever read through SQLite
+    (see ``_not_a_database`` for why).
     """
     path = Path(path)
     if path.is_dir():
@@ -161,9 +164,10 @@ def open_db(path: str | Path, create: bool = True) -> sqlite3.Connection:
         if create:
             conn = sqlite3.connect(path, timeout=BUSY_TIMEOUT_S, isolation_level=None)
         else:
-            uri = f"file:{quote(str(path.resolve()))}?mode=ro"
-            conn = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+            conn = _open_readonly(path)  # reads the header: a non-database fails here (closed)
     except sqlite3.Error as e:
+        if getattr(e, "sqlite_errorcode", None) == sqlite3.SQLITE_NOTADB or "not a database" in str(e):
+            raise StoreError(_not_a_database(path, e)) from None
         raise StoreError(f"{path}: cannot open ({e})") from None
     try:
         _check_schema(conn, path, create)
@@ -179,6 +183,45 @@ def open_db(path: str | Path, create: bool = True) -> sqlite3.Connection:
         conn.close()
         raise
     return conn
+
+
+def _connect_ro(path: Path, immutable: bool = False) -> sqlite3.Connection:
+    uri = f"file:{quote(str(path.resolve()))}?mode=ro" + ("&immutable=1" if immutable else "")
+    conn = sqlite3.connect(uri, uri=True, timeout=BUSY_TIMEOUT_S, isolation_level=None)
+    try:
+        conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()  # opens the file (and the WAL)
+    except sqlite3.Error:
+        conn.close()
+        raise
+    return conn
+
+
+def _open_readonly(path: Path) -> sqlite3.Connection:
+    """A read-only connection (``mode=ro``). Reading a WAL database needs its ``-shm`` file, which
+    SQLite creates beside it: in a directory this process cannot write (a read-only mount, another
+    user's run) with no ``-shm`` there, ``mode=ro`` fails, and the file is opened ``immutable=1``
+    (no locks, no WAL) -- only when nothing can be writing it nor be left in a journal: no
+    non-empty ``-wal`` and no ``-journal`` beside it (a writer needs one; a killed writer leaves
+    committed frames in the ``-wal`` that ``immutable`` would silently skip). Otherwise a
+    ``StoreError`` says why."""
+    try:
+        return _connect_ro(path)
+    except sqlite3.OperationalError as e:
+        if getattr(e, "sqlite_errorcode", None) == sqlite3.SQLITE_NOTADB or os.access(path.parent, os.W_OK):
+            raise
+        first = e
+    wal, journal = Path(f"{path}-wal"), Path(f"{path}-journal")
+    try:
+        pending = wal if wal.exists() and wal.stat().st_size > 0 else journal if journal.exists() else None
+    except OSError:
+        pending = wal
+    if pending is not None:
+        raise StoreError(
+            f"{path}: cannot open read-only ({first}): its directory is not writable and {pending.name} "
+            "holds changes not yet in the database (a writer is running or was killed); read a copy in "
+            "a writable directory"
+        )
+    return _connect_ro(path, immutable=True)
 
 
 def _state(conn: sqlite3.Connection) -> tuple[int, int, list[str]]:
@@ -268,11 +311,12 @@ def _cols(a: np.ndarray) -> list[list]:
 class SqliteStore:
     """Sink writing one run per ``on_start``..``on_end`` into ``db_path`` (created if missing).
 
-    ``run_id`` is set in ``on_start``. Commits every ``batch_frames`` frames and at the end.
+    ``run_id`` is set in ``on_start``. Commits every ``batch_frames`` frames (default 1: each
+    frame at the next ``on_tick``, so a kill loses at most one frame) and at the end.
     """
 
     def __init__(
-        self, db_path: Path, scenario: Scenario, run_dir: Path | None = None, batch_frames: int = 20,
+        self, db_path: Path, scenario: Scenario, run_dir: Path | None = None, batch_frames: int = 1,
         source: str | None = None,
     ) -> None:
         if batch_frames < 1:

@@ -274,3 +274,74 @@ def test_a_generator_exported_with_another_camera(tmp_path: Path) -> None:
     res = run(app, [*base, "--camera", "8000x720", "--out", str(tmp_path / "bad")])
     assert res.exit_code == 2 and "--camera 8000x720: width" in res.output
     assert not (tmp_path / "bad").exists()
+
+
+# --- names from user data stay file names under --out ------------------------------------------
+
+def test_safe_file_stem_keeps_plain_names_and_defuses_the_rest():
+    from lookahead.tools.sinks.rundir import MAX_STEM, safe_file_stem
+
+    for plain in ("urban_mix", "det_000003", "a.b-c_D9"):
+        assert safe_file_stem(plain) == plain
+    odd = ["../escape", "/abs/path", "..", ".", "", ".hidden", "a b", "a_b-x", "base[v=1]", "base[v=2]",
+           "base[v=1.5]", "ünïcode", "new\nline", "C:\\win\\path", "x" * 500, "x" * 501]
+    stems = [safe_file_stem(n) for n in odd]
+    for name, stem in zip(odd, stems, strict=True):
+        assert stem and len(stem) <= MAX_STEM and not stem.startswith("."), (name, stem)
+        assert all(c.isascii() and (c.isalnum() or c in "._-") for c in stem), (name, stem)
+        assert stem not in (".", "..")
+    assert len(set(stems)) == len(stems)  # distinct names, distinct stems (brackets of sweep variants too)
+    assert safe_file_stem("base[v=1]").startswith("base_v_1_-")
+
+
+def test_inside_refuses_a_path_outside_the_root(tmp_path):
+    from lookahead.tools.sinks.rundir import OutputError, inside
+
+    assert inside(tmp_path, tmp_path / "a" / "b") == tmp_path / "a" / "b"
+    for bad in (tmp_path / ".." / "x", Path("/abs/path"), tmp_path / "a" / ".." / ".." / "y"):
+        with pytest.raises(OutputError, match="outside the output directory"):
+            inside(tmp_path, bad)
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_scenario_names_with_paths_or_odd_characters_write_only_under_out(short, tmp_path: Path, fmt: str) -> None:
+    abs_target = tmp_path / "abs" / "target"
+    names = ["../../escape", str(abs_target), "odd name[v=1] é;|*"]
+    scenarios = [short.model_copy(update={"name": n, "duration": 0.3}) for n in names]
+    out = tmp_path / "deep" / "ds"
+    res = export_scenarios(scenarios, fmt, 1, out, render=False)  # labels only: fast
+    assert [s["name"] for s in res["sequences"]] == names and res["frames"] > 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["deep"]  # nothing beside --out
+    assert sorted(p.name for p in (tmp_path / "deep").iterdir()) == ["ds"]
+    assert not abs_target.exists()
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert files and all(p.resolve().is_relative_to(out.resolve()) for p in files)
+    assert not any(c in str(p.relative_to(out)) for p in files for c in " []|*;é")
+
+
+def test_a_generator_name_and_split_names_write_only_under_out(tmp_path: Path) -> None:
+    gen = tmp_path / "gen.yaml"
+    gen.write_text('generator:\n  name: "../../../evil"\n  duration: 0.5\n  camera: {width: 64, height: 48}\n'
+                   '  splits:\n    "../up": {seeds: [0, 1]}\n    "/abs/split": {seeds: [1, 2]}\n')
+    out = tmp_path / "o" / "ds"
+    res = export_dataset_cli(gen, out)
+    assert res.exit_code == 0, res.output
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["gen.yaml", "o"] and not Path("/abs/split").exists()
+    files = [p for p in out.rglob("*") if p.is_file()]
+    assert len([p for p in files if p.name == "annotations.json"]) == 2
+    assert all(p.resolve().is_relative_to(out.resolve()) for p in files)
+
+
+def export_dataset_cli(source: Path, out: Path):
+    from typer.testing import CliRunner
+
+    from lookahead.tools.cli import app
+
+    return CliRunner().invoke(app, ["export-dataset", str(source), "--format", "coco", "--out", str(out)])
+
+
+def test_names_that_would_share_a_file_name_are_refused(short, tmp_path: Path) -> None:
+    scenarios = [short.model_copy(update={"name": n, "duration": 0.3}) for n in ("Urban", "urban")]
+    with pytest.raises(ValueError, match="distinct file names"):
+        export_scenarios(scenarios, "mot", 1, tmp_path / "ds", render=False)
+    assert not (tmp_path / "ds").exists()

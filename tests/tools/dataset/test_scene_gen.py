@@ -103,3 +103,40 @@ def test_a_larger_camera_sees_the_same_scenes(spec, wh):
 def test_a_camera_out_of_range_is_refused(spec):
     with pytest.raises(ValueError, match=r"^--camera 8000x720: width .*4096"):
         with_camera(spec, (8000, 720))
+
+
+@pytest.mark.parametrize(("body", "field"), [
+    ("  lane_width: [3.8, 3.0]\n", "generator.lane_width: expected [min, max] with min <= max, got [3.8, 3.0]"),
+    ("  lanes: [4, 1]\n", "generator.lanes: expected [min, max]"),
+    ("  traffic: [6, 0]\n", "generator.traffic: expected [min, max]"),
+    ("  ego_speed: [15.0, 0.0]\n", "generator.ego_speed: expected [min, max]"),
+    ("  actors: {count: [10, 3]}\n", "generator.actors.count: expected [min, max]"),
+    ("  actors: {x: [90.0, 3.0]}\n", "generator.actors.x: expected [min, max]"),
+    ("  actors: {parked_cars: [3, 0]}\n", "generator.actors.parked_cars: expected [min, max]"),
+    ("  camera: {fov_h: [95.0, 85.0]}\n", "generator.camera.fov_h: expected [min, max]"),
+    ("  camera: {pitch: [.nan, 2.0]}\n", "generator.camera.pitch.0: Input should be a finite number"),
+    ("  weather: {fog_visibility: [.nan, .nan]}\n", "generator.weather.fog_visibility.0"),
+    ("  weather: {intensity: [.inf, 1.0]}\n", "generator.weather.intensity.0"),
+    ("  weather: {fog_visibility: [0.0, 300.0]}\n", "generator.weather.fog_visibility.0"),
+    ("  actors: {count: [0, 1000000000]}\n", "generator.actors.count.1"),
+    ("  actors: {mix: {dragon: 1.0}}\n", "generator.actors.mix: unknown class(es) dragon"),
+    ("  actors: {mix: {car: -1.0}}\n", "generator.actors.mix: expected weights >= 0"),
+    ("  camera: {fov_h: [85.0, 200.0]}\n", "generator.camera.fov_h.1"),
+])
+def test_a_reversed_or_non_finite_range_is_one_line_naming_file_and_field(tmp_path, capsys, lookahead, body, field):
+    gen = tmp_path / "gen.yaml"
+    gen.write_text("generator:\n  splits: {train: {seeds: [0, 2]}}\n" + body)
+    with pytest.raises(ScenarioError) as err:
+        load_generator(gen)
+    assert f"{gen}: {field}" in str(err.value) and "\n" not in str(err.value), str(err.value)
+    code = lookahead("export-dataset", gen, "--format", "coco", "--out", tmp_path / "out")
+    lines = [x for x in capsys.readouterr().err.splitlines() if x.strip()]
+    assert code == 2 and len(lines) == 1 and f"{gen}: {field}" in lines[0], lines
+    assert not (tmp_path / "out").exists()
+
+
+def test_equal_range_ends_are_a_constant(tmp_path):
+    gen = tmp_path / "gen.yaml"
+    gen.write_text("generator:\n  splits: {train: {seeds: [0, 2]}}\n  lane_width: [3.5, 3.5]\n  lanes: [2, 2]\n")
+    sc = generate_scenario(load_generator(gen), 1)
+    assert sc.road.lane_width == 3.5 and sc.road.lanes == 2

@@ -164,3 +164,49 @@ def _parse_text(text: str) -> _Refs:
     p = _Refs()
     p.feed(text)
     return p
+
+
+def _one_error_line(capsys, code: int, *needles: str) -> None:
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if x.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, (code, err)
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+
+
+@pytest.mark.parametrize(("content", "needle"), [
+    (b"\x00\xff\xfe\x80", "metrics.json:1: not UTF-8 text"),
+    (b'{"detection": 5}', "metrics.json: detection: expected a mapping, got int"),
+    (b'{"expectations": 5}', "metrics.json: expectations: expected a list of results"),
+    (b'{"expectations": [{"passed": true}]}', "metrics.json: expectations: expected a list of results"),
+    (b'{"timing": {"track": 5}}', "metrics.json: timing.track: expected a mapping, got int"),
+    (b'{"intent": {"confusion": {"labels": ["a"], "matrix": [[1, 2]]}}}', "metrics.json: intent.confusion"),
+    (b'{"detection": {"per_class": {"car": 3}}}', "metrics.json: detection.per_class"),
+    (b'{"danger": {"event_list": [1]}}', "metrics.json: danger.event_list"),
+])
+def test_a_malformed_metrics_json_is_one_line_naming_it(run_dir: Path, tmp_path: Path, capsys, lookahead,
+                                                        content: bytes, needle: str) -> None:
+    run = tmp_path / "run"
+    shutil.copytree(run_dir, run)
+    (run / REPORT_FILE).unlink(missing_ok=True)
+    (run / "metrics.json").write_bytes(content)
+    _one_error_line(capsys, lookahead("report", run), f"{run}/{needle}")
+    assert not (run / REPORT_FILE).exists()
+
+
+@pytest.mark.parametrize(("summary", "needle"), [
+    (b"\x00\xff\xfe\x80", "summary.json: not UTF-8 text"),
+    (b'{"runs": [1, 2]}', "summary.json: runs: expected a mapping, got list"),
+    (b'{"runs": {"evil": {"dir": "../outside"}}}', "summary.json: runs.evil.dir '../outside' is not a directory inside"),
+    (b'{"runs": {"evil": {"dir": "/tmp"}}}', "summary.json: runs.evil.dir '/tmp' is not a directory inside"),
+])
+def test_a_suite_summary_cannot_send_a_report_outside_the_suite(run_dir: Path, tmp_path: Path, capsys, lookahead,
+                                                                 summary: bytes, needle: str) -> None:
+    outside = tmp_path / "outside"
+    shutil.copytree(run_dir, outside)  # a run directory a report could be written into
+    (outside / REPORT_FILE).unlink(missing_ok=True)
+    suite = tmp_path / "suite"
+    suite.mkdir()
+    (suite / "summary.json").write_bytes(summary)
+    _one_error_line(capsys, lookahead("report", suite), f"{suite}/{needle}")
+    assert not (outside / REPORT_FILE).exists() and not (suite / REPORT_FILE).exists()

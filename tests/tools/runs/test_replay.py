@@ -155,3 +155,88 @@ def test_cli_replay(recorded, tmp_path):
     assert (tmp_path / "c" / "metrics.json").is_file()
     r = CliRunner().invoke(app, ["replay", str(tmp_path / "nope"), "--out", str(tmp_path / "d")])
     assert r.exit_code == 2 and "no such" in r.output
+
+
+def _one_line(capsys, code: int, *needles: str) -> str:
+    """exit 2, exactly one non-empty stderr line holding every needle, no traceback."""
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if x.strip()]
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err, (code, err)
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+    return lines[0]
+
+
+BAD_CONFIGS = [  # config file content (None: no such file), what the line says after the file name
+    (None, "no such replay config file"),
+    (b"\x00\xff\xfe\x80", "not UTF-8 text"),
+    (b"tracker: {match_iou: [\n", "malformed YAML"),
+    (b"- 1\n- 2\n", "expected a mapping of tracker / estimator / intent / alerts overrides, got list"),
+    (b"just text\n", "got str"),
+    (b"detector: {kind: onnx}\n", "unknown section(s) detector"),
+    (b"tracker: 5\n", "tracker: expected a mapping of settings, got int"),
+    (b"tracker: {bogus: 1}\n", "tracker.bogus: unknown field"),
+    (b"tracker: {high_score: high}\n", "tracker.high_score: Input should be a valid number"),
+    (b"alerts: {on_frames_high: [1]}\n", "alerts.on_frames_high"),
+    (b"tracker: {match_iou: .nan}\n", "tracker.match_iou: expected a finite number"),
+    (b"intent: {bogus_key: 1}\n", "intent"),
+]
+
+
+@pytest.mark.parametrize(("content", "needle"), BAD_CONFIGS)
+def test_a_bad_replay_config_is_one_line_naming_it(recorded, tmp_path, capsys, lookahead, content, needle):
+    config = tmp_path / "cfg.yaml"
+    if content is not None:
+        config.write_bytes(content)
+    code = lookahead("replay", recorded, "--out", tmp_path / "out", "--config", config)
+    _one_line(capsys, code, f"{config}", needle)
+    assert not (tmp_path / "out").exists()  # refused before anything is written
+
+
+def _copy_run(recorded: Path, dest: Path) -> Path:
+    dest.mkdir()
+    for f in recorded.iterdir():
+        if f.is_file():
+            (dest / f.name).write_bytes(f.read_bytes())
+    return dest
+
+
+BAD_TICKS = [  # line 3 of ticks.jsonl replaced by this, what the line says after file:3
+    (b"{oops\n", "not valid JSON"),
+    (b"\x00\xff\xfe\x80 binary\n", "not UTF-8 text"),
+    (b"[1, 2]\n", "expected a JSON object per line"),
+    (b'{"tick": 3}\n', "t: missing"),
+    (b'{"t": "soon"}\n', "t: expected a finite number"),
+    (b'{"t": 0.3, "ego": [1]}\n', "ego: expected an object"),
+    (b'{"t": 0.3, "ego": {"speed": "fast"}}\n', "ego.speed: expected a finite number"),
+    (b'{"t": 0.3, "detections": 7}\n', "detections: expected an object or null"),
+    (b'{"t": 0.3, "detections": {"xyxy": [[1, 2, 3]], "score": [1], "class_id": [0]}}\n', "detections:"),
+    (b'{"t": 0.3, "detections": {"xyxy": [[1, 2, 3, 4]]}}\n', "detections.score: missing"),
+    (b'{"t": 0.3, "tick": "x"}\n', "tick / frame: expected integers"),
+]
+
+
+@pytest.mark.parametrize(("line", "needle"), BAD_TICKS)
+def test_garbage_in_the_recorded_ticks_is_one_line_naming_file_and_line(recorded, tmp_path, capsys, lookahead,
+                                                                       line, needle):
+    run = _copy_run(recorded, tmp_path / "run")
+    lines = (run / "ticks.jsonl").read_bytes().splitlines(keepends=True)
+    (run / "ticks.jsonl").write_bytes(b"".join(lines[:2]) + line + b"".join(lines[3:]))
+    code = lookahead("replay", run, "--out", tmp_path / "out")
+    _one_line(capsys, code, f"{run / 'ticks.jsonl'}:3: ", needle)
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("content", "needle"), [
+    (b"{not json", "not valid JSON"),
+    (b"\x89PNG\x00\xff", "not UTF-8 text"),
+    (b"[]", "expected a JSON object"),
+    (b"{}", "scenario: missing"),
+    (b'{"scenario": 3}', "scenario: expected a mapping"),
+    (b'{"scenario": {"name": "x", "duration": "long"}}', "scenario.duration"),
+])
+def test_a_broken_run_json_is_one_line_naming_it(recorded, tmp_path, capsys, lookahead, content, needle):
+    run = _copy_run(recorded, tmp_path / "run")
+    (run / "run.json").write_bytes(content)
+    code = lookahead("replay", run, "--out", tmp_path / "out")
+    _one_line(capsys, code, f"{run / 'run.json'}", needle)

@@ -110,6 +110,19 @@ grid:
     ("grid:\n  ego..speed: [1]\n", ["malformed parameter path"]),
     ("grdi:\n  ego.speed: [1]\n", ["s.yaml:", "grdi: unknown field"]),
     ("samples: {n: 2, params: {ego.speed: {uniform: [5]}}}\n", ["s.yaml:2", "samples.params"]),
+    # hostile values: not finite, not a parameter value at all, out of range, two paths to one field
+    ("grid:\n  ego.speed: [8, .nan]\n", ["ego.speed", "expected a finite number", "nan"]),
+    ("grid:\n  ego.speed: [-.inf]\n", ["ego.speed", "expected a finite number", "inf"]),
+    ("grid:\n  ego.speed: []\n", ["grid: ego.speed", "non-empty list"]),
+    ("grid:\n  ego.speed: [2020-01-01]\n", ["grid: ego.speed[0]", "unsupported value"]),
+    ("set:\n  ego.speed: !!binary aGVsbG8=\n", ["set: ego.speed", "unsupported value"]),
+    ("samples: {n: 2, params: {ego.speed: {uniform: [-1.0e308, 1.0e308]}}}\n", ["ego.speed", "finite [low, high]"]),
+    ("samples: {n: 2, params: {seed: {randint: [0, 100000000000000000000000]}}}\n", ["seed", "randint"]),
+    ("samples: {n: 2, params: {ego.aeb: {choice: [true, 2020-01-01]}}}\n", ["ego.aeb", "item 1", "unsupported"]),
+    ("grid:\n  actors[0].speed: [1]\n  actors[target].speed: [2]\n",
+     ["actors[target].speed", "same scenario field as actors[0].speed"]),
+    ("set:\n  actors[0].speed: 1\ngrid:\n  actors[target].speed: [2]\n",
+     ["grid: actors[target].speed", "same scenario field as set: actors[0].speed"]),
 ])
 def test_bad_sweep_is_one_clear_line(tmp_path, text, needles):
     sw = write(tmp_path / "s.yaml", f"scenario: {CAR}\n{text}")
@@ -117,6 +130,19 @@ def test_bad_sweep_is_one_clear_line(tmp_path, text, needles):
         load_sweep(sw)
     msg = str(e.value)
     assert "\n" not in msg and str(sw) in msg and all(n in msg for n in needles), msg
+
+
+def test_a_sweep_spec_built_in_python_refuses_non_finite_values():
+    """The same check without the YAML loader (which refuses NaN first): the model itself."""
+    from pydantic import ValidationError
+
+    from lookahead.tools.runs.sweep import SweepSpec
+
+    for grid in ({"ego.speed": [8.0, float("nan")]}, {"ego.speed": [float("inf")]}):
+        with pytest.raises(ValidationError, match=r"grid: ego\.speed\[\d\]: expected a finite number"):
+            SweepSpec(scenario=str(CAR), grid=grid)
+    with pytest.raises(ValidationError, match="set: duration: expected a finite number"):
+        SweepSpec(scenario=str(CAR), set={"duration": float("nan")})
 
 
 # --------------------------------------------------------------------------- running
@@ -204,14 +230,17 @@ def test_sweep_on_a_local_ray_instance(tmp_path):
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path):
     bad_field = short_sweep(tmp_path, "  ego.speed: [8]\nworkers: 3\n", name="bad.yaml")
     bad_path = short_sweep(tmp_path, "  ego.speeed: [8]\n", name="path.yaml")
+    nan = short_sweep(tmp_path, "  ego.speed: [8, .nan]\n", name="nan.yaml")
     for args, needle in [
         (["sweep", str(tmp_path / "missing.yaml"), "--out", str(tmp_path / "o")], "no such sweep file"),
         (["sweep", str(bad_field), "--out", str(tmp_path / "o")], "workers: unknown field"),
         (["sweep", str(bad_path), "--out", str(tmp_path / "o")], "unknown field 'speeed'"),
+        (["sweep", str(nan), "--out", str(tmp_path / "o")], "expected a finite number, got nan"),
     ]:
         res = cli.invoke(app, args)
         out = res.output.strip()
         assert res.exit_code == 2 and needle in out and "Traceback" not in out, out
+        assert args[1] in out and (args[1] != str(nan) or "ego.speed" in out), out  # the file and the parameter
         assert len(out.splitlines()) == 1, out
     assert not (tmp_path / "o").exists()
     dry = cli.invoke(app, ["sweep", str(short_sweep(tmp_path, "  ego.speed: [8, 9]\n")), "--out",

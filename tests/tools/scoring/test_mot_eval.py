@@ -252,3 +252,27 @@ def test_track_bad_seqinfo_is_one_line_error(lookahead, tmp_path: Path, capsys: 
     assert lookahead("track", "--det", det, "--out", tmp_path / "o.txt") == 0
     captured = capsys.readouterr()
     assert "has no frameRate" in captured.err and "30 fps (default)" in captured.out
+
+
+@pytest.mark.parametrize(("content", "needle"), [
+    (b"1,-1,1,1,10,10,0.9\n10000000000,-1,1,1,10,10,0.9\n", ":2: frame must be an integer >= 1 and <= 100000"),
+    (b"1,-1,1,1,10,10,0.9\n1e10,-1,1,1,10,10,0.9\n", ":2: frame must be an integer"),
+    (b"1,-1,1,1,10,10,0.9\n\x00\xff\xfe\x80\x81garbage\n", ":2: not UTF-8 text"),
+    (b"\x89PNG\r\n\x1a\n\x00\x00", ":1: not UTF-8 text"),
+])
+def test_a_hostile_det_file_is_one_line_fast(lookahead, tmp_path: Path, capsys, content: bytes, needle: str) -> None:
+    """A frame number of 1e10 would ask for 75 GiB of frame slots: refused before allocating."""
+    import time
+
+    det = tmp_path / "det.txt"
+    det.write_bytes(content)
+    for args in (("track", "--det", det, "--out", tmp_path / "o.txt", "--frame-rate", 10.0),
+                 ("eval-mot", "--gt", det, "--tracks", det)):
+        t0 = time.perf_counter()
+        code = lookahead(*args)
+        assert time.perf_counter() - t0 < 2.0
+        err = capsys.readouterr().err
+        lines = [x for x in err.splitlines() if x.strip()]
+        assert code == 2 and len(lines) == 1 and "Traceback" not in err, (code, err)
+        assert lines[0].startswith("error: ") and f"{det}{needle}" in lines[0], lines[0]
+    assert not (tmp_path / "o.txt").exists()

@@ -428,3 +428,58 @@ def test_errors_exit_2_with_one_line_and_nothing_overwritten(tmp_path, capsys, l
         assert (run / "metrics.json").read_text() == metrics
         assert sorted(p.name for p in run.iterdir()) == sorted(
             ["metrics.json"] + ([] if setup == "missing_ticks" else ["ticks.jsonl"]))
+
+
+BROKEN_RUN_JSON = [  # run.json content, what the one line says after its name
+    (b"{not json", "not valid JSON"),
+    (b"\x00\xff\xfe\x80binary", "not UTF-8 text"),
+    (b"[1, 2]", "expected a JSON object"),
+    (b'{"scenario": 5}', "scenario: expected a mapping, got int"),
+    (b'{"scenario": {"ego": "fast"}}', "scenario.ego: expected a mapping, got str"),
+    (b'{"scenario": {"expect": {"a": 1}}}', "scenario.expect: expected a list, got dict"),
+    (b'{"scenario": {"expect": [3]}}', "scenario.expect[0]: expected a mapping, got int"),
+    (b'{"scenario": {"name": 7}}', "scenario.name: expected text, got int"),
+    (b'{"summary": []}', "summary: expected a mapping, got list"),
+]
+
+
+def _one_error_line(capsys, code: int, *needles: str) -> None:
+    err = capsys.readouterr().err
+    lines = [x for x in err.splitlines() if x.strip()]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: ") and "Traceback" not in err, (code, err)
+    for needle in needles:
+        assert needle in lines[0], (needle, lines[0])
+
+
+@pytest.mark.parametrize("command", ["score", "report"])
+@pytest.mark.parametrize(("content", "needle"), BROKEN_RUN_JSON)
+def test_a_broken_run_json_is_one_line_naming_it(tmp_path, capsys, lookahead, command, content, needle):
+    run = write_run(tmp_path / "r", [{"ground_truth": gt({"id": 1, "cls": PED, "box": A})}])
+    (run / "run.json").write_bytes(content)
+    _one_error_line(capsys, lookahead(command, run), f"{run / 'run.json'}", needle)
+    assert not (run / "metrics.json").exists() and not (run / "report.html").exists()
+
+
+@pytest.mark.parametrize("command", ["score", "report"])
+def test_a_binary_ticks_file_is_one_line_naming_file_and_line(tmp_path, capsys, lookahead, command):
+    run = write_run(tmp_path / "r", [{"ground_truth": gt({"id": 1, "cls": PED, "box": A})}] * 3)
+    lines = (run / "ticks.jsonl").read_bytes().splitlines(keepends=True)
+    (run / "ticks.jsonl").write_bytes(lines[0] + b"\x00\xff\xfe\x80\x81 garbage\n" + lines[2])
+    _one_error_line(capsys, lookahead(command, run), f"{run / 'ticks.jsonl'}:2: not UTF-8 text")
+
+
+def test_a_run_json_without_the_optional_keys_still_scores(tmp_path, capsys, lookahead):
+    run = write_run(tmp_path / "r", [{"ground_truth": gt({"id": 1, "cls": PED, "box": A})}])
+    (run / "run.json").write_text('{"scenario": {"name": "x", "expect": []}, "summary": null}')
+    assert lookahead("score", run) == 0
+    assert lookahead("report", run) == 0 and (run / "report.html").is_file()
+
+
+@pytest.mark.parametrize(("key", "value"), [("frame", 10**10), ("tick", -1), ("frame", "x"), ("tick", 1.5)])
+def test_a_tick_or_frame_number_out_of_range_is_one_line(tmp_path, capsys, lookahead, key, value):
+    run = write_run(tmp_path / "r", [{"ground_truth": gt({"id": 1, "cls": PED, "box": A})}] * 2)
+    lines = (run / "ticks.jsonl").read_text().splitlines()
+    rec = json.loads(lines[1])
+    rec[key] = value
+    (run / "ticks.jsonl").write_text(lines[0] + "\n" + json.dumps(rec) + "\n")
+    _one_error_line(capsys, lookahead("score", run), f"{run / 'ticks.jsonl'}:2: {key}: expected an integer 0..")

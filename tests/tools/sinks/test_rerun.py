@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections import Counter
 from pathlib import Path
 
@@ -26,11 +27,14 @@ Collect = RecordCollector
 
 def load(path: Path) -> tuple[Counter, set[str], dict[str, list]]:
     """Rows per temporal entity, static entity paths, and the columns of each temporal entity."""
-    store = RrdReader(path).store()  # needs the footer: the recording was finalised
+    # the sink writes no footer (flat memory): read the whole file, as the viewer does
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="RRD file has no footer")
+        stream = RrdReader(path).stream()
     rows: Counter = Counter()
     static: set[str] = set()
     columns: dict[str, list] = {}
-    for chunk in store.stream().to_chunks():
+    for chunk in stream.to_chunks():
         if chunk.is_static:
             static.add(chunk.entity_path)
             continue
@@ -99,3 +103,25 @@ def test_unwritable_path_is_one_line_output_error(tmp_path):
     (tmp_path / "file").write_text("")
     with pytest.raises(OutputError, match="Rerun recording"):
         RerunSink(tmp_path / "file" / "run.rrd")
+
+
+def test_no_footer_by_default_and_one_on_request(recorded, tmp_path):
+    """The default file has no footer (rerun keeps the footer's manifest in memory for the whole
+    run); ``footer=True`` writes it, so ``RrdReader.store()`` (which needs it) works."""
+    _, _, records, _ = recorded
+    for footer in (False, True):
+        path = tmp_path / f"footer{footer}.rrd"
+        sink = RerunSink(path, footer=footer)
+        sink.on_start({"scenario": "x", "seed": 0})
+        for r in records[:3]:
+            sink.on_tick(r)
+        sink.on_end({})
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="RRD file has no footer")
+            reader = RrdReader(path)
+        if footer:
+            assert sum(c.num_rows for c in reader.store().stream().to_chunks() if c.entity_path == "/ego/camera/image") == 3
+        else:
+            with pytest.raises(RuntimeError, match="without footer"):
+                reader.store()
+        assert load(path)[0]["/ego/camera/image"] == 3

@@ -256,3 +256,26 @@ def test_suite_and_sweep_totals_agree_on_what_both_pool(recorded, tmp_path):
         assert suite[sec] == sweep[sec], sec
     assert sweep["mean_over_variants"] == {"detection.recall": pytest.approx(metrics[0]["detection"]["recall"],
                                                                              abs=1e-4)}
+
+
+def test_a_killed_writers_torn_last_line_is_dropped_and_a_torn_middle_line_is_an_error(tmp_path):
+    """A SIGKILL can cut ticks.jsonl inside its last line: the whole lines before it stay readable."""
+    good = json.dumps({"tick": 0}) + "\n" + json.dumps({"tick": 1}) + "\n"
+    torn = tmp_path / "torn.jsonl"
+    torn.write_text(good + '{"tick": 2, "ego": {"spe')
+    records, lines = rundir.read_jsonl(torn)
+    assert [r["tick"] for r in records] == [0, 1] and lines == [1, 2]
+    middle = tmp_path / "middle.jsonl"
+    middle.write_text('{"tick": 0, "eg\n' + good)
+    with pytest.raises(rundir.RunDirError, match=rf"^{middle}:1: not valid JSON"):
+        rundir.read_jsonl(middle)
+
+
+def test_binary_jsonl_and_json_name_the_file_and_line(tmp_path):
+    binary = tmp_path / "ticks.jsonl"
+    binary.write_bytes(b'{"tick": 0}\n\xff\xfe\x00\x01\n')
+    with pytest.raises(rundir.RunDirError, match=rf"^{binary}:2: not UTF-8 text"):
+        rundir.read_jsonl(binary)
+    (tmp_path / "metrics.json").write_bytes(b"\x89PNG\r\n")
+    with pytest.raises(rundir.RunDirError, match=r"metrics.json: not UTF-8 text"):
+        rundir.read_metrics(tmp_path)

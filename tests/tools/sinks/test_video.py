@@ -64,7 +64,7 @@ def test_mp4_reads_back_with_every_frame_at_the_camera_size(rendered):
     assert sink.frames_written == len(records) == summary.frames > 10
     assert len(frames) == sink.frames_written
     assert {f.shape for f in frames} == {(sc.camera.height, sc.camera.width, 3)}
-    assert sink.fourcc in video.FOURCCS
+    assert sink.fourcc == video.FOURCC
 
 
 def test_frames_carry_the_overlay(rendered):
@@ -168,12 +168,14 @@ def test_bad_paths_fail_when_the_sink_is_made(tmp_path):
     assert list((tmp_path / "new").iterdir()) == []
 
 
-def test_missing_encoder_is_an_output_error_at_construction(tmp_path, monkeypatch):
+def test_a_directory_that_refuses_files_is_an_output_error_at_construction(tmp_path, monkeypatch):
     from lookahead.tools.sinks.rundir import OutputError
 
-    monkeypatch.setattr(video, "_WORKING_FOURCC", None)
-    monkeypatch.setattr(video, "FOURCCS", ("zzzz",))
-    with pytest.raises(OutputError, match="cannot write an MP4") as e:
+    def refuse(self, data):
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(Path, "write_bytes", refuse)
+    with pytest.raises(OutputError, match="cannot write in the video's directory") as e:
         VideoSink(tmp_path / "a.mp4", fps=10)
     assert str(tmp_path / "a.mp4") in str(e.value) and list(tmp_path.iterdir()) == []
 

@@ -1,0 +1,326 @@
+"""Hostile and malformed input to every ``lookahead`` command: exit 2, one line, no traceback.
+
+The README promises that a user's mistake (a malformed scenario, a field of the wrong type, a
+missing file, an unwritable output directory) "prints one line naming the file, field and line
+and exits with code 2". The corpus (``malformed_cases.CASES``, files under tests/data/malformed/,
+big and hostile ones generated at test time) holds that promise to account:
+
+* ``test_malformed_input_refused`` -- one pytest item per case (``malformed_cases.CORE``, 119 cases;
+  all 283 of ``CASES`` with LOOKAHEAD_MALFORMED_ALL=1). Every case runs as a real child process of
+  the installed ``lookahead`` script (10 s timeout, peak RSS via ``os.wait4`` <= 1 GiB, RLIMIT_AS
+  8 GiB so that a bomb cannot take the machine down). The children run 3 at a time in a thread
+  pool: the first item starts the pool over every *selected* case (``-k`` narrows it), each item
+  then checks its own result. A case killed at the timeout is run once more alone (same 10 s), so
+  that the verdict is about the command, not about our own concurrency. The per-case wall / CPU /
+  RSS table lands in summary.json beside them (and in $LOOKAHEAD_MALFORMED_SUMMARY if set).
+* ``test_validate_batch`` -- every scenario file of the corpus in ONE ``lookahead validate``
+  invocation (``validate`` prints one line per file): exit 2, exactly one ``bad`` line per file,
+  each naming its file.
+* ``test_bomb_refused_fast`` -- the bombs (billion laughs in a scenario, suite, sweep and replay
+  config; the 10^10 sweep grid; hostile ONNX ``imgsz`` metadata; MOT frame 10^10; a 100 MB file;
+  20000-level nesting; --camera 60000x60000) alone, one at a time: refused (exit 2, one line),
+  <= 300 MB peak RSS, and within 2 s of the command's own work: wall and CPU time at most 2 s above
+  those of the same command refusing a one-line mistake (``BOMB_REFS``), run right before it. That
+  reference holds Python start-up and the command's imports (1.5-2.6 s of CPU for most commands,
+  against 0.3 s for ``lookahead --help``) and the load of the other processes on the machine.
+* ``test_export_dataset_name_traversal`` -- a scenario named ``../../escape`` exports fine and
+  writes only under ``--out``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import time
+import traceback
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import pytest
+from malformed_cases import (  # tests/tools is on sys.path (rootdir-relative import)
+    BOMB_REFS,
+    BOMBS,
+    BY_ID,
+    CASES,
+    CORE,
+    CORPUS,
+    HUGE_BYTES,
+    MEMORY_LIMIT_BYTES,
+    SCENARIO_FILES,
+    SHIPPED_MODEL,
+    Bases,
+    Case,
+    Ctx,
+    Result,
+    run_cli,
+)
+
+WORKERS = 3  # children at a time
+HEAVY = ("train-detector", "soup-detector", "bench", "demo")
+SELECTED = CASES if os.environ.get("LOOKAHEAD_MALFORMED_ALL") else CORE
+BOMB_EXTRA_S = 2.0
+BOMB_RSS_BYTES = 300 * (1 << 20)
+
+
+# ----------------------------------------------------------------------------------- fixtures
+
+
+def _build_coco(root: Path) -> Path:
+    import json
+
+    import cv2
+    import numpy as np
+
+    split = root / "coco"
+    (split / "images").mkdir(parents=True)
+    img = np.full((360, 640, 3), 90, np.uint8)
+    cv2.rectangle(img, (300, 150), (340, 230), (30, 30, 200), -1)
+    cv2.imwrite(str(split / "images" / "f0.png"), img)
+    doc = {
+        "images": [{"id": 1, "file_name": "images/f0.png", "width": 640, "height": 360}],
+        "annotations": [{"id": 1, "image_id": 1, "bbox": [300.0, 150.0, 40.0, 80.0], "category_id": 1,
+                         "occlusion": 0.0, "area": 3200.0, "iscrowd": 0, "attributes": {"range_m": 20.0}}],
+        "categories": [{"id": 1, "name": "pedestrian"}],
+    }
+    (split / "annotations.json").write_text(json.dumps(doc))
+    return split
+
+
+def _build_huge(root: Path) -> Path:
+    p = root / "huge.yaml"
+    with p.open("wb") as fh:
+        fh.write(b"name: huge\ndescription: ")
+        chunk = b"a" * (1 << 20)
+        for _ in range(HUGE_BYTES >> 20):
+            fh.write(chunk)
+        fh.write(b"\n")
+    return p
+
+
+@pytest.fixture(scope="module")
+def bases(tmp_path_factory: pytest.TempPathFactory) -> Bases:
+    root = tmp_path_factory.mktemp("malformed_bases")
+    sc = root / "base.yaml"
+    shutil.copy(CORPUS / "valid" / "base.yaml", sc)
+    suite1 = root / "suite1.yaml"
+    suite1.write_text(f"name: one\nscenarios: [{sc}]\n")
+    gt = root / "gt.txt"
+    shutil.copy(CORPUS / "mot" / "valid_gt.txt", gt)
+    made = root / "run_cli"
+    made.mkdir()
+    res = run_cli(["run", str(sc), "--out", str(root / "run"), "--no-render", "--sqlite"], made, timeout=120)
+    assert res.returncode == 0, f"building the valid base run failed:\n{res.stderr}"
+    coco = _build_coco(root)
+    for split in ("train", "val"):
+        shutil.copytree(coco, root / "ds" / split)
+    return Bases(root=root, sc=sc, suite1=suite1, run=root / "run", coco=coco, gt=gt,
+                 huge_yaml=_build_huge(root), ds=root / "ds")
+
+
+_results: dict[str, tuple[Ctx, Result]] = {}
+
+
+def _run_case(case: Case, bases: Bases, root: Path) -> tuple[Ctx, Result]:
+    ctx = Ctx(bases=bases, dir=root / case.id)
+    ctx.dir.mkdir(parents=True, exist_ok=True)
+    return _run_case_in(case, ctx)
+
+
+def _run_case_in(case: Case, ctx: Ctx) -> tuple[Ctx, Result]:
+    try:
+        argv = ctx.fill(case)
+    except Exception:  # a broken case (the harness's fault): reported by its own item only
+        return ctx, Result(argv=["lookahead", *case.argv], returncode=-999, stdout="",
+                           stderr="HARNESS ERROR building the case:\n" + traceback.format_exc(), wall_s=0.0,
+                           maxrss_bytes=0)
+    return ctx, run_cli(argv, ctx.dir)
+
+
+@pytest.fixture(scope="module")
+def corpus_results(request: pytest.FixtureRequest, bases: Bases, tmp_path_factory: pytest.TempPathFactory):
+    """Runs every selected case of this module's corpus test concurrently (once); id -> (ctx, result)."""
+    selected = [item.callspec.params["case"] for item in request.session.items
+                if getattr(item, "originalname", None) == "test_malformed_input_refused"
+                and item.module is request.module]
+    root = tmp_path_factory.mktemp("malformed_cases")
+    t0 = time.monotonic()
+    heavy = [c for c in selected if c.argv[0] in HEAVY]  # torch / pybullet start-up: 4-6 s of CPU each
+    light = [c for c in selected if c.argv[0] not in HEAVY]
+    step = max(1, len(light) // max(1, len(heavy)))
+    order = []  # the heavy ones spread over the run, not three at once
+    for i in range(max(len(heavy), 1)):
+        order += heavy[i:i + 1] + light[i * step:(i + 1) * step]
+    order += light[max(len(heavy), 1) * step:]
+    assert sorted(c.id for c in order) == sorted(c.id for c in selected)
+    with ThreadPoolExecutor(WORKERS) as pool:
+        futures = {c.id: pool.submit(_run_case, c, bases, root) for c in order}
+        for cid, fut in futures.items():
+            _results[cid] = fut.result()
+    # A child killed at the timeout while sharing the cores with two others gets a second chance
+    # alone (same 10 s): the verdict should be about the command, not about our own concurrency.
+    for c in selected:
+        ctx, first = _results[c.id]
+        if first.timed_out:
+            retry_ctx = Ctx(bases=bases, dir=root / f"{c.id}.alone")
+            retry_ctx.dir.mkdir()
+            _, again = _run_case_in(c, retry_ctx)
+            again.note = f"killed at {first.wall_s:.1f} s among {WORKERS}; alone: {again.wall_s:.1f} s"
+            _results[c.id] = (retry_ctx, again)
+    wall = time.monotonic() - t0
+    cpu = sum(_results[c.id][1].cpu_s for c in selected)
+    rows = [{"id": c.id, "rc": r.returncode, "wall_s": round(r.wall_s, 2), "cpu_s": round(r.cpu_s, 2),
+             "rss_mb": round(r.maxrss_bytes / 2**20), "ok": not problems(c, ctx, r),
+             "problems": problems(c, ctx, r), "note": r.note, "stderr": r.stderr[-600:]}
+            for c in selected for ctx, r in [_results[c.id]]]
+    (root / "summary.json").write_text(json.dumps(rows, indent=1))
+    if os.environ.get("LOOKAHEAD_MALFORMED_SUMMARY"):  # a copy that outlives pytest's temporary dirs
+        Path(os.environ["LOOKAHEAD_MALFORMED_SUMMARY"]).write_text(json.dumps(rows, indent=1))
+    print(f"\nmalformed corpus: {len(selected)} cases in {wall:.1f} s wall ({WORKERS} at a time), children's CPU "
+          f"{cpu:.0f} s; per case: {root / 'summary.json'}")
+    return _results
+
+
+# ----------------------------------------------------------------------------------- checks
+
+
+def problems(case: Case, ctx: Ctx, res: Result, rss_limit: int = MEMORY_LIMIT_BYTES) -> list[str]:
+    """What is wrong with how the command ended (empty: exit 2, one line naming the input)."""
+    out: list[str] = []
+    if res.timed_out:
+        out.append(f"killed after {res.wall_s:.1f} s (no answer within the timeout)")
+    elif res.returncode != 2:
+        out.append(f"exit code {res.returncode}, expected 2")
+    if "Traceback" in res.stderr or "Traceback" in res.stdout:
+        out.append("a traceback")
+    lines = res.lines
+    if len(lines) != 1:
+        out.append(f"{len(lines)} non-empty stderr lines, expected 1")
+    want = case.expected_name(ctx)
+    if lines and not any(want.lower() in ln.lower() for ln in lines):
+        out.append(f"stderr does not name {want!r}")
+    if res.maxrss_bytes > rss_limit:
+        out.append(f"peak RSS {res.maxrss_bytes / 2**20:.0f} MB > {rss_limit / 2**20:.0f} MB")
+    return out
+
+
+def report(case: Case, res: Result, found: list[str]) -> str:
+    tail = "\n".join(res.stderr.strip().splitlines()[-8:])
+    return (f"{case.id}: {case.what}\n  $ {' '.join(res.argv[1:])}\n  problems: {'; '.join(found)}\n"
+            + (f"  ({res.note})\n" if res.note else "")
+            + f"  wall {res.wall_s:.1f} s, CPU {res.cpu_s:.1f} s, peak RSS {res.maxrss_bytes / 2**20:.0f} MB, stderr (last lines):\n"
+            + "\n".join("    | " + ln for ln in tail.splitlines()))
+
+
+# ----------------------------------------------------------------------------------- tests
+
+
+def test_corpus_is_big_enough() -> None:
+    commands = {c.argv[0] if c.argv[0] != "bench" else f"bench {c.argv[1]}" for c in CORE}
+    assert len(CORE) >= 110
+    assert len({c.id for c in CASES}) == len(CASES)
+    for cmd in ("run", "validate", "suite", "regress", "sweep", "replay", "score", "report", "query", "render",
+                "export-dataset", "eval-detector", "train-detector", "soup-detector", "track", "eval-mot", "ncap",
+                "schema", "catalogue", "demo", "bench sim", "bench detect", "bench env", "bench sinks",
+                "bench track", "bench all", "bench sweep"):
+        assert cmd in commands, f"no malformed case for `lookahead {cmd}`"
+    on_disk = {p.relative_to(CORPUS).as_posix() for p in CORPUS.rglob("*") if p.is_file()}
+    assert sum(p.stat().st_size for p in CORPUS.rglob("*") if p.is_file()) < 200_000, "keep corpus files small"
+    assert {f"scenario/{f}" for f, _ in SCENARIO_FILES} <= on_disk
+
+
+@pytest.mark.parametrize("case", SELECTED, ids=[c.id for c in SELECTED])
+def test_malformed_input_refused(case: Case, corpus_results) -> None:
+    ctx, res = corpus_results[case.id]
+    found = problems(case, ctx, res)
+    assert not found, report(case, res, found)
+
+
+def test_validate_batch(tmp_path: Path) -> None:
+    files = [CORPUS / "scenario" / f for f, _ in SCENARIO_FILES]
+    res = run_cli(["validate", *map(str, files)], tmp_path, timeout=30)
+    lines = res.lines
+    msgs = []
+    if res.returncode != 2:
+        msgs.append(f"exit code {res.returncode}, expected 2")
+    if "Traceback" in res.stderr:
+        msgs.append("a traceback:\n" + res.stderr[-2000:])
+    if len(lines) != len(files):
+        msgs.append(f"{len(lines)} stderr lines for {len(files)} files")
+    for f, what in SCENARIO_FILES:
+        mine = [ln for ln in lines if f"/{f}" in ln]
+        if not mine:
+            msgs.append(f"{f} ({what}): no line names it")
+        elif not all(ln.startswith("bad") for ln in mine):
+            msgs.append(f"{f} ({what}): accepted: {mine[0]}")
+    assert not msgs, "\n".join(msgs)
+
+
+def startup_s(where: Path) -> float:
+    """Wall time of ``lookahead --help`` now (the best of three): Python, typer and the CLI module."""
+    walls = []
+    for _ in range(3):
+        res = run_cli(["--help"], where, timeout=30)
+        assert res.returncode == 0, res.stderr
+        walls.append(res.wall_s)
+    return min(walls)
+
+
+def test_bombs_have_references() -> None:
+    assert {c.id for c in BOMBS} == set(BOMB_REFS)
+    assert all(r in BY_ID for r in BOMB_REFS.values())
+    kinds = " ".join(c.what for c in BOMBS)
+    for what in ("billion laughs", "10^10 variants", "imgsz", "frame 10^10", "100 MB", "nested"):
+        assert what in kinds
+
+
+@pytest.mark.parametrize("case", BOMBS, ids=[c.id for c in BOMBS])
+def test_bomb_refused_fast(case: Case, bases: Bases, tmp_path: Path) -> None:
+    """Alone, one at a time: refused (exit 2, one line) within 2 s and <= 300 MB.
+
+    "Within 2 s" is of the command's own work on the bomb: its wall and CPU time may exceed those of
+    the same command refusing a one-line mistake (``BOMB_REFS``; run right before, so that Python
+    start-up, the command's imports and the load other processes put on this shared machine count on
+    both sides) by at most 2 s each. ``lookahead --help`` start-up is shown for scale."""
+    ref_case = BY_ID[BOMB_REFS[case.id]]
+    ref_ctx = Ctx(bases=bases, dir=tmp_path / "ref")
+    ref_ctx.dir.mkdir()
+    ctx = Ctx(bases=bases, dir=tmp_path / "bomb")
+    ctx.dir.mkdir()
+    argv = ctx.fill(case)
+    startup = startup_s(tmp_path)
+    ref = run_cli(ref_ctx.fill(ref_case), ref_ctx.dir, timeout=60)
+    res = run_cli(argv, ctx.dir)
+    found = problems(case, ctx, res, rss_limit=BOMB_RSS_BYTES)
+    scale = (f"(reference {ref_case.id}: {ref.wall_s:.2f} s wall, {ref.cpu_s:.2f} s CPU; "
+             f"--help start-up {startup:.2f} s)")
+    if res.wall_s > ref.wall_s + BOMB_EXTRA_S:
+        found.append(f"took {res.wall_s:.2f} s wall > reference + {BOMB_EXTRA_S:.0f} s {scale}")
+    if res.cpu_s > ref.cpu_s + BOMB_EXTRA_S:
+        found.append(f"used {res.cpu_s:.2f} s CPU > reference + {BOMB_EXTRA_S:.0f} s {scale}")
+    assert not found, report(case, res, found)
+    print(f"{case.id}: {res.wall_s:.2f} s wall, {res.cpu_s:.2f} s CPU, {res.maxrss_bytes / 2**20:.0f} MB {scale}")
+
+
+def test_export_dataset_name_traversal(tmp_path: Path) -> None:
+    """A scenario whose name climbs out (``../../escape``) exports, and writes only under --out."""
+    work = tmp_path / "a" / "b" / "c"
+    work.mkdir(parents=True)
+    sc = work / "escape.yaml"
+    sc.write_text((CORPUS / "valid" / "base.yaml").read_text().replace("name: base", "name: ../../escape")
+                  .replace("duration: 1.0", "duration: 0.5"))
+    out = work / "ds"
+    before = {p for p in tmp_path.rglob("*")}
+    for fmt in ("yolo", "coco", "mot"):
+        res = run_cli(["export-dataset", str(sc), "--out", str(out / fmt), "--format", fmt, "--no-render"], work,
+                      timeout=60)
+        assert res.returncode == 0, f"--format {fmt}: exit {res.returncode}\n{res.stderr[-2000:]}"
+    written = {p for p in tmp_path.rglob("*")} - before
+    outside = sorted(str(p) for p in written if out not in p.parents and p != out
+                     and not p.name.startswith((".std", ".rusage")))  # run_cli's own files
+    assert not outside, f"export-dataset wrote outside --out: {outside[:5]}"
+    assert any(p.is_file() for p in out.rglob("*")), "nothing exported"
+
+
+def test_shipped_model_exists() -> None:  # the hostile ONNX fixtures are built from it
+    assert SHIPPED_MODEL.is_file()
