@@ -111,7 +111,6 @@ from collections import deque
 from dataclasses import dataclass, field, fields
 
 import numpy as np
-from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
 
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.detections import Detections
@@ -541,6 +540,10 @@ class Estimator:
 
     def _process(self, dt: float, class_id: int) -> list[tuple[np.ndarray, np.ndarray]]:
         """(F, Q) over ``dt`` (s) of each model: [cv], [ca] or [quiet cv, ca] (``imm``)."""
+        # lazy: filterpy.common pulls in filterpy.kalman and scipy.stats (~0.6 s), which every
+        # command that only reads a scenario would pay at start-up
+        from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
+
         cfg = self.config
         cid = np.array([class_id])
         models = []

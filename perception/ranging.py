@@ -120,7 +120,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import truncnorm
 
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.estimator_config import EstimatorConfig, PriorTable
@@ -501,6 +500,8 @@ class BoxRanger:
         si = width / np.sqrt(12.0)
         use_t = t_ok & bounded  # the top ray's Gaussian truncated to the bounds
         if np.any(use_t):
+            from scipy.stats import truncnorm  # lazy: scipy.stats costs ~0.5 s at start-up
+
             mu, sd = mx + xc_t[use_t], sig_t[use_t]
             a, bb = (lower[use_t] - mu) / sd, (upper[use_t] - mu) / sd
             m_tr, v_tr = truncnorm.stats(a, bb, loc=mu, scale=sd, moments="mv")

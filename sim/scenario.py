@@ -12,7 +12,6 @@ import math
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-import yaml
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -27,6 +26,7 @@ from pydantic_core import PydanticCustomError
 from lookahead.intent.alerts import AlertConfig
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Risk
+from lookahead.perception import yaml_model
 from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, PerceptionSpec, *Overrides: re-exported)
     DetectorSpec,
     EstimatorOverrides,
@@ -36,7 +36,8 @@ from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, Percepti
     TrackerOverrides,
 )
 from lookahead.perception.detections import CLASSES
-from lookahead.perception.safe_yaml import YamlError, first_non_finite, load_yaml, read_yaml_text
+from lookahead.perception.safe_yaml import YamlError, read_yaml_text
+from lookahead.perception.yaml_model import field_path, format_validation  # noqa: F401  (re-exported)
 from lookahead.sim.aeb import AebConfig
 from lookahead.sim.driver import DriverConfig
 from lookahead.sim.shapes import SUBTYPES
@@ -535,67 +536,12 @@ class ScenarioError(SettingsError):
     """A scenario that cannot be used; ``str()`` is one line naming file, field and problem."""
 
 
-def _node_line(node: yaml.Node | None, loc: tuple) -> int | None:
-    """1-based line of the YAML node at ``loc`` (or of its deepest existing parent)."""
-    line = None
-    for key in loc:
-        if node is None:
-            break
-        line = node.start_mark.line + 1
-        if isinstance(node, yaml.MappingNode):
-            node = next((v for k, v in node.value if k.value == key), None)
-        elif isinstance(node, yaml.SequenceNode) and isinstance(key, int) and key < len(node.value):
-            node = node.value[key]
-        else:
-            node = None
-    if node is not None:
-        line = node.start_mark.line + 1
-    return line
-
-
-def field_path(loc: tuple) -> str:
-    """A location as a field path: ``actors[0].start.x``."""
-    return ".".join(str(x) if not isinstance(x, int) else f"[{x}]" for x in loc).replace(".[", "[")
-
-
-def format_validation(path: str, err: ValidationError, root: yaml.Node | None) -> str:
-    """One line for a validation error: ``file:line: field.path: message`` (line when ``root`` is given)."""
-    first = err.errors()[0]
-    loc = tuple(x for x in first["loc"] if not (isinstance(x, str) and x.startswith("function-")))
-    line = _node_line(root, loc) if loc else None
-    msg = first["msg"].removeprefix("Value error, ")
-    where = f"{path}:{line}" if line else path
-    more = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
-    if first["type"] == "extra_forbidden":
-        msg = "unknown field"
-    if "input" in first and first["type"] not in ("missing", "extra_forbidden") and not isinstance(
-        first["input"], dict | list
-    ):
-        msg += f", got {first['input']!r}"
-    return f"{where}: {field_path(loc) or '(top level)'}: {msg}{more}"
-
-
 def parse_yaml_model(
     text: str, path: str, model: type[BaseModel], what: str, error: type[ScenarioError] | None = None,
 ) -> Any:
-    """Validate YAML ``text`` as pydantic ``model``; a one-line ``error`` (``ScenarioError``)
-    naming ``path:line`` and the field when the YAML or a value is wrong."""
-    err = error or ScenarioError
-    try:
-        data, root = load_yaml(text, path)
-    except YamlError as e:
-        raise err(str(e)) from None
-    if not isinstance(data, dict):
-        raise err(f"{path}: expected a mapping of {what} fields, got {type(data).__name__}")
-    bad = first_non_finite(data)
-    if bad is not None:
-        loc, value = bad
-        line = _node_line(root, loc)
-        raise err(f"{path}{f':{line}' if line else ''}: {field_path(loc)}: expected a finite number, got {value!r}")
-    try:
-        return model.model_validate(data)
-    except ValidationError as e:
-        raise err(format_validation(path, e, root).replace(": (top level): ", ": ")) from None
+    """Validate YAML ``text`` as pydantic ``model`` (``perception.yaml_model``); a one-line
+    ``error`` (``ScenarioError``) naming ``path:line`` and the field when the YAML or a value is wrong."""
+    return yaml_model.parse_yaml_model(text, path, model, what, error or ScenarioError)
 
 
 def parse_scenario(text: str, path: str = "<string>") -> Scenario:

@@ -526,12 +526,25 @@ def validate(scenarios: Annotated[list[Path], typer.Argument(help="scenario YAML
     """Validate scenario files; one line per file."""
     from rich.markup import escape
 
+    from lookahead.perception.detectors.onnx_detector import ModelError
     from lookahead.sim.scenario import ScenarioError, load_scenario
 
+    models: dict[str, str | None] = {}  # model file -> why it cannot be used (None: it loads)
     bad = 0
     for p in scenarios:
         try:
-            load_scenario(p)
+            spec = load_scenario(p).perception.detector
+            if spec.model is not None and spec.kind != "gt":  # run would load it: so does validate
+                if spec.model not in models:
+                    from lookahead.intent.stack import build_detector
+
+                    try:
+                        build_detector(spec, 0, render=True)
+                        models[spec.model] = None
+                    except ModelError as e:
+                        models[spec.model] = str(e)
+                if models[spec.model] is not None:
+                    raise ScenarioError(f"{p}: perception.detector.model: {models[spec.model]}")
             console.print(f"ok   {escape(str(p))}", highlight=False, soft_wrap=True)
         except ScenarioError as e:
             bad += 1

@@ -148,6 +148,11 @@ def test_bad_rerun_path_leaves_an_existing_run_dir_byte_identical(tmp_path):
         ("perception:\n  estimator: {motion_modl: cv}\n", ":3: perception.estimator.motion_modl: unknown field"),
         ("intent:\n  horizon: soon\n", ":3: intent.horizon: Input should be a valid number"),
         ("expect:\n  - alert: {actor: nobody, level_at_least: HUGE}\n", ":3: expect[0].alert.level_at_least"),
+        ("actors:\n  - {id: p, type: pedestrian, start: {x: .nan, y: 2}}\n", ":3: actors[0].start.x: expected a finite"),
+        ("seed: 4294967296\n", ":2: seed: Input should be less than or equal to 4294967295"),
+        # what run refuses when it loads the detector, validate refuses too
+        ("perception:\n  detector: {kind: onnx, model: /nonexistent/m.onnx}\n",
+         ": perception.detector.model: /nonexistent/m.onnx: model file not found"),
     ],
 )
 def test_validate_prints_one_line_per_file_and_exits_2(tmp_path, body, needle):
