@@ -114,21 +114,30 @@ def describe(exc: BaseException) -> str:
     return str(exc)
 
 
-def _user_errors() -> tuple[type[BaseException], ...]:
-    """Exceptions that mean the user's input or environment is wrong (not a bug)."""
-    from lookahead.perception.config import SettingsError  # ScenarioError is one
-    from lookahead.perception.detectors.onnx_detector import ModelError
-    from lookahead.tools.detector.arch import ArchitectureError
-    from lookahead.tools.detector.data import DatasetError
-    from lookahead.tools.detector.train import ResumeError
-    from lookahead.tools.runs.regress import BaselineError
-    from lookahead.tools.runs.replay import ReplayError
-    from lookahead.tools.sinks.rundir import OutputError, RunDirError
-    from lookahead.tools.sinks.store import StoreError
+#: (module, class) of the exceptions that mean the user's input or environment is wrong (not a bug).
+USER_ERRORS: tuple[tuple[str, str], ...] = (
+    ("lookahead.perception.config", "SettingsError"),  # ScenarioError, SweepError are ones
+    ("lookahead.perception.detectors.onnx_detector", "ModelError"),
+    ("lookahead.perception.calibration", "CalibrationError"),
+    ("lookahead.perception.ego_speed", "EgoSpeedError"),
+    ("lookahead.perception.sources", "SourceError"),
+    ("lookahead.tools.detector.arch", "ArchitectureError"),
+    ("lookahead.tools.detector.data", "DatasetError"),
+    ("lookahead.tools.detector.train", "ResumeError"),
+    ("lookahead.tools.runs.regress", "BaselineError"),
+    ("lookahead.tools.runs.replay", "ReplayError"),
+    ("lookahead.tools.sinks.rundir", "OutputError"),
+    ("lookahead.tools.sinks.rundir", "RunDirError"),
+    ("lookahead.tools.sinks.store", "StoreError"),
+)
 
-    return (SettingsError, ModelError, OutputError, BaselineError, StoreError, ResumeError, ArchitectureError,
-            DatasetError, ReplayError, RunDirError,
-            FileNotFoundError, FileExistsError, PermissionError, NotADirectoryError, IsADirectoryError)
+
+def _user_errors() -> tuple[type[BaseException], ...]:
+    """The user-error classes of ``USER_ERRORS`` whose modules are loaded (an exception can only
+    come from a loaded module: nothing is imported here, so an early refusal stays small), and
+    the OS errors that name a file."""
+    loaded = tuple(getattr(sys.modules[m], name) for m, name in USER_ERRORS if m in sys.modules)
+    return (*loaded, FileNotFoundError, FileExistsError, PermissionError, NotADirectoryError, IsADirectoryError)
 
 
 def user_errors(fn):
@@ -369,6 +378,43 @@ def run(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
         f"{len(hits)} collision(s) -> {out}", highlight=False,
     )
+
+
+@app.command()
+@user_errors
+def watch(
+    source: Annotated[str, typer.Argument(help="video file, image folder, camera index or rtsp:// / http(s):// URL")],
+    out: Annotated[Path, typer.Option("--out", help="run directory to write (no ground truth)")],
+    calibration: Annotated[Path | None, typer.Option(
+        help="camera calibration YAML (scenarios/calibration.schema.json); default: a pinhole camera of --fov "
+             "at the source's image size on the simulator's default mount (x -1.5 m, height 1.4 m, pitch -2 deg)",
+    )] = None,
+    fov: Annotated[float, typer.Option(min=10.0, max=170.0, help="default camera's horizontal FOV (deg), "
+                                       "without --calibration")] = 90.0,
+    ego_speed: Annotated[str | None, typer.Option(
+        "--ego-speed", help="ego speed: a number (m/s), a CSV (t,speed) / JSON log, or none (default: none; "
+                            "then ego-motion-dependent estimates and alerts are not meaningful)",
+    )] = None,
+    model: Annotated[Path | None, typer.Option(help="YOLO-layout ONNX detector (default: the shipped model)")] = None,
+    video: Annotated[Path | None, typer.Option("--video", help="annotated MP4 (e.g. RUN_DIR/annotated.mp4)")] = None,
+    db: Annotated[Path | None, typer.Option("--db", help="also write into this SQLite store (runs accumulate)")] = None,
+    max_frames: Annotated[int | None, typer.Option("--max-frames", min=1, help="stop after this many frames")] = None,
+) -> None:
+    """Run the perception stack on real video (file, folder, camera, stream); Ctrl-C ends it cleanly."""
+    from lookahead.tools.runs.watch import watch as watch_source
+
+    if fov != 90.0 and calibration is not None:
+        raise typer.BadParameter("--fov applies only without --calibration")
+    s = watch_source(source, out, calibration=calibration, ego_speed=ego_speed, model=model, video=video, db=db,
+                     max_frames=max_frames, fov=fov)
+    console.print(
+        f"{s['source']}: {s['frames']} frames at {number(s['fps'], '{:.1f}')} fps, {s['dropped']} dropped, "
+        f"{len(s['gaps'])} gap(s), {s['alerts']} alert(s){' (interrupted)' if s['interrupted'] else ''} -> {out}",
+        highlight=False, soft_wrap=True,
+    )
+    if s["frames_without_ego_speed"]:
+        console.print(f"note: {s['frames_without_ego_speed']} frame(s) without ego speed: ego-motion-dependent "
+                      "estimates and alerts are not meaningful there", highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -912,8 +958,6 @@ def eval_detector(
     out: Annotated[Path | None, typer.Option("--out", help="write the metrics (JSON) here")] = None,
 ) -> None:
     """AP50, recall at precision 0.95, operating-point P/R of a detector on objects at 5-50 m, visible >= 0.5."""
-    from lookahead.tools.detector.evaluate import evaluate_model
-
     zoom = windows_option(windows)
     if out is not None:  # an unwritable --out fails now, not after the evaluation
         out.parent.mkdir(parents=True, exist_ok=True)
@@ -926,6 +970,11 @@ def eval_detector(
             chain = PreprocessChain(yaml_option("--preprocess", preprocess))
         except ValueError as e:
             fail(f"--preprocess: {e}")
+    from lookahead.perception.detectors.onnx_detector import OnnxDetector
+
+    OnnxDetector(model)  # a missing, broken or hostile model fails now, before the scorer and simulator load
+    from lookahead.tools.detector.evaluate import evaluate_model
+
     results = {str(sp): evaluate_model(model, sp, conf=conf, preprocess=chain, min_size=min_box, windows=zoom,
                                        min_height=min_height)
                for sp in splits}
