@@ -224,7 +224,7 @@ class Runner:
         frame and ``on_end`` (also when an exception ends the run: its ``error``); closes the runner."""
         sc = self.scenario
         info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
-                "renderer": getattr(self.renderer, "backend", None)}
+                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera}
         for s in self.sinks:
             s.on_start(info)
         summary = RunSummary(0, 0, 0.0, renderer=info["renderer"])

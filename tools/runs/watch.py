@@ -221,7 +221,7 @@ def watch(
                 from lookahead.tools.sinks.video import VideoSink
 
                 sinks.append(VideoSink(video, fps=fps))
-            info = {"scenario": config.name, "seed": 0, "ticks": None, "renderer": None}
+            info = {"scenario": config.name, "seed": 0, "ticks": None, "renderer": None, "camera": camera}
             for s in sinks:
                 s.on_start(info)
                 started.append(s)

@@ -39,6 +39,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from lookahead.intent.labels import NEVER
+from lookahead.perception.calibration import CalibrationError, CameraCalibration, write_calibration
 from lookahead.sim.records import TickRecord, jsonable
 from lookahead.sim.scenario import Scenario
 
@@ -46,6 +47,7 @@ RUN_FILE = "run.json"
 TICKS_FILE = "ticks.jsonl"
 TIMINGS_FILE = "timings.jsonl"
 METRICS_FILE = "metrics.json"
+CALIBRATION_FILE = "camera.yaml"  # the run's camera as a calibration file (perception.calibration)
 SUMMARY_FILE = "summary.json"  # a suite's (or sweep's) directory
 
 T = TypeVar("T")
@@ -246,6 +248,11 @@ class RunDirWriter:
             "complete": False,
         }
         write_run_json(self.dir, self._run)
+        if info.get("camera") is not None:  # the same file `lookahead watch --calibration` reads
+            try:
+                write_calibration(CameraCalibration.from_camera(info["camera"]), self.dir / CALIBRATION_FILE)
+            except CalibrationError as e:
+                log.warning("%s: camera not written as a calibration file (%s)", self.dir, e)
         self._ticks = (self.dir / TICKS_FILE).open("w", encoding="utf-8")
 
     def on_tick(self, record: TickRecord) -> None:

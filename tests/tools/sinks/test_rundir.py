@@ -279,3 +279,16 @@ def test_binary_jsonl_and_json_name_the_file_and_line(tmp_path):
     (tmp_path / "metrics.json").write_bytes(b"\x89PNG\r\n")
     with pytest.raises(rundir.RunDirError, match=r"metrics.json: not UTF-8 text"):
         rundir.read_metrics(tmp_path)
+
+
+def test_a_run_directory_holds_its_camera_as_a_calibration_file(recorded, short_scenario):
+    """``camera.yaml`` is the file ``lookahead watch --calibration`` reads, and it is the run's camera."""
+    from lookahead.perception.calibration import load_calibration
+    from lookahead.sim.runner import camera_from_scenario
+    from lookahead.sim.scenario import load_scenario
+
+    cam = load_calibration(recorded / rundir.CALIBRATION_FILE).to_camera()
+    want = camera_from_scenario(load_scenario(short_scenario))
+    assert (cam.width, cam.height) == (want.width, want.height)
+    assert np.allclose(cam.K, want.K) and np.allclose(cam.mount, want.mount)
+    assert np.allclose([cam.yaw, cam.pitch, cam.roll], [want.yaw, want.pitch, want.roll])
