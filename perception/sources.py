@@ -106,7 +106,12 @@ STREAM_TIMEOUTS_MS = (10_000, 5_000)
 
 
 def default_capture(target: str | int) -> Capture:
-    """``cv2.VideoCapture(target)``; for a URL through FFmpeg with ``STREAM_TIMEOUTS_MS``."""
+    """``cv2.VideoCapture(target)``; for a URL through FFmpeg with ``STREAM_TIMEOUTS_MS``.
+
+    FFmpeg's own log lines ("moov atom not found", ...) would reach the user's terminal beside
+    our one-line errors and warnings: they are silenced unless ``OPENCV_FFMPEG_LOGLEVEL`` is set
+    (e.g. 24 to see them; OpenCV reads it when its FFmpeg backend first opens a file)."""
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
     if isinstance(target, str) and urlsplit(target).scheme.lower() in URL_SCHEMES:
         open_ms, read_ms = STREAM_TIMEOUTS_MS
         params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, open_ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, read_ms]

@@ -534,6 +534,29 @@ S = "scenario/"
 OUT = ["--out", "{out}"]
 
 
+def image_folder(ctx: Ctx) -> Path:
+    """A valid one-image source for ``watch`` (640x360 PNG) at ``{tmp}/imgs``."""
+    import cv2
+    import numpy as np
+
+    folder = ctx.dir / "imgs"
+    folder.mkdir(exist_ok=True)
+    cv2.imwrite(str(folder / "f0.png"), np.full((360, 640, 3), 90, np.uint8))
+    return folder
+
+
+def watch_input(name: str, data: str | bytes) -> Callable[[Ctx], Path]:
+    """``name`` (a calibration file or speed log) with ``data``, beside a valid image folder."""
+    def make(ctx: Ctx) -> Path:
+        image_folder(ctx)
+        return _write(ctx, name, data)
+    return make
+
+
+CALIBRATION_OK = ("version: 1\nimage: {width: 640, height: 360}\nintrinsics: {fov_h_deg: 90}\n"
+                  "mount: {x: -1.5, height: 1.4}\n")
+
+
 def _c(id: str, argv: list[str], what: str, **kw) -> Case:
     return Case(id=id, argv=argv, what=what, **kw)
 
@@ -653,6 +676,27 @@ CASES: list[Case] = [
        "--db below a regular file", names="afile"),
     _c("run-video-devnull", ["run", "{sc}", *OUT, "--video", "/dev/null/a.mp4"], "--video below /dev/null",
        names="/dev/null"),
+    # ===== watch ==============================================================================
+    _c("watch-missing-source", ["watch", "{f}", *OUT], "no such video file", make=missing("clip.mp4")),
+    _c("watch-garbage-video", ["watch", "{f}", *OUT], "a text file named .mp4",
+       make=lambda ctx: _write(ctx, "clip.mp4", "not a video\n" * 50)),
+    _c("watch-empty-folder", ["watch", "{f}", *OUT], "an image folder without images",
+       make=lambda ctx: (ctx.dir / "noimgs").mkdir() or ctx.dir / "noimgs"),
+    _c("watch-calibration-missing", ["watch", "{tmp}/imgs", *OUT, "--calibration", "{f}"], "no such calibration",
+       make=lambda ctx: image_folder(ctx) and ctx.dir / "cam.yaml"),
+    _c("watch-calibration-nan", ["watch", "{tmp}/imgs", *OUT, "--calibration", "{f}"], "mount height .nan",
+       make=watch_input("cam.yaml", CALIBRATION_OK.replace("height: 1.4", "height: .nan"))),
+    _c("watch-calibration-typo", ["watch", "{tmp}/imgs", *OUT, "--calibration", "{f}"], "mount.hieght",
+       make=watch_input("cam.yaml", CALIBRATION_OK.replace("height: 1.4", "hieght: 1.4"))),
+    _c("watch-calibration-laughs", ["watch", "{tmp}/imgs", *OUT, "--calibration", "{f}"], "billion laughs",
+       make=watch_input("cam.yaml", "x-laughs:\n" + laughs()[0] + "version: " + laughs()[1] + "\n")),
+    _c("watch-calibration-size", ["watch", "{tmp}/imgs", *OUT, "--calibration", "{f}"],
+       "calibration for 1280x720, frames 640x360",
+       make=watch_input("cam.yaml", CALIBRATION_OK.replace("width: 640, height: 360", "width: 1280, height: 720"))),
+    _c("watch-speed-reversed", ["watch", "{tmp}/imgs", *OUT, "--ego-speed", "{f}"], "speed log times go back",
+       make=watch_input("speed.csv", "t,speed\n0,10\n2,11\n1,12\n")),
+    _c("watch-speed-binary", ["watch", "{tmp}/imgs", *OUT, "--ego-speed", "{f}"], "a binary speed log",
+       make=watch_input("speed.csv", b"\x00\x01\xff\xfe" * 64)),
     # ===== render ============================================================================
     _c("render-every-0", ["render", "{sc}", *OUT, "--every", "0"], "--every 0", names="--every"),
     _c("render-every-negative", ["render", "{sc}", *OUT, "--every", "-3"], "--every -3", names="--every"),
