@@ -41,7 +41,7 @@ from lookahead.sim.driver import Driver, combine_brakes
 from lookahead.sim.ego import Collision
 from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
 from lookahead.sim.records import Sink, TickRecord
-from lookahead.sim.scenario import Scenario, ScenarioError
+from lookahead.sim.scenario import Scenario, ScenarioError, mounted_camera
 from lookahead.sim.weather import Weather
 from lookahead.sim.world import World
 
@@ -53,10 +53,7 @@ STAGES = ("sim", "render", "gt", "preprocess", "detect", "track", "estimate", "i
 
 def camera_from_scenario(scenario: Scenario) -> CameraModel:
     c = scenario.camera
-    m = c.mount
-    return CameraModel.from_fov(
-        c.width, c.height, c.fov_h, mount=(m.x, m.y, m.z), yaw_deg=m.yaw, pitch_deg=m.pitch, roll_deg=m.roll
-    )
+    return mounted_camera(c.width, c.height, c.fov_h, c.mount)
 
 
 @contextmanager

@@ -27,6 +27,7 @@ from lookahead.intent.alerts import AlertConfig
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import Risk
 from lookahead.perception import yaml_model
+from lookahead.perception.camera import CameraModel
 from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, PerceptionSpec, *Overrides: re-exported)
     DetectorSpec,
     EstimatorOverrides,
@@ -165,6 +166,13 @@ class MountSpec(Strict):
     pitch: float = Field(-2.0, ge=-45.0, le=45.0, description="deg, > 0 looks up")
     yaw: float = Field(0.0, ge=-45.0, le=45.0, description="deg, > 0 looks left")
     roll: float = Field(0.0, ge=-30.0, le=30.0, description="deg")
+
+
+def mounted_camera(width: int, height: int, fov_h: float, mount: MountSpec) -> CameraModel:
+    """A pinhole camera of ``fov_h`` deg horizontal field of view at ``width`` x ``height`` px on
+    ``mount`` (a scenario's camera, or ``lookahead watch``'s default one)."""
+    return CameraModel.from_fov(width, height, fov_h, mount=(mount.x, mount.y, mount.z), yaw_deg=mount.yaw,
+                                pitch_deg=mount.pitch, roll_deg=mount.roll)
 
 
 class CameraSpec(Strict):

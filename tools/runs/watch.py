@@ -53,7 +53,7 @@ from lookahead.perception.sources import CaptureThread, SourceError, open_source
 from lookahead.perception.tracker import TrackState
 from lookahead.sim.groundtruth import GroundTruth
 from lookahead.sim.records import Sink, TickRecord
-from lookahead.sim.scenario import MountSpec
+from lookahead.sim.scenario import MountSpec, mounted_camera
 
 log = logging.getLogger(__name__)
 
@@ -102,9 +102,7 @@ def empty_ground_truth() -> GroundTruth:
 
 def default_camera(width: int, height: int, fov: float = DEFAULT_FOV) -> CameraModel:
     """A pinhole camera of ``fov`` deg at ``width`` x ``height`` px on the simulator's default mount."""
-    m = MountSpec()
-    return CameraModel.from_fov(width, height, fov, mount=(m.x, m.y, m.z), yaw_deg=m.yaw, pitch_deg=m.pitch,
-                                roll_deg=m.roll)
+    return mounted_camera(width, height, fov, MountSpec())
 
 
 class _Interrupt:
