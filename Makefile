@@ -16,16 +16,17 @@ demo: $(STAMP)
 	$(BIN)/lookahead demo --out out/demo
 
 test: $(STAMP)
+	bash setup/system.sh
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --baseline scenarios/suites/smoke.baseline.json
 	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --aeb on --detector onnx --render \
 		--baseline scenarios/suites/smoke_aeb_pixels.baseline.json
-	$(BIN)/python -m pytest
+	LOOKAHEAD_REQUIRE_SYSTEM=1 $(BIN)/python -m pytest
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) out .pytest_cache .cache

@@ -1,0 +1,44 @@
+"""What the tests need from the machine beyond the venv (``setup/system.sh`` provides it).
+
+A test that needs a Debian package or OpenCV's sample clip asks here: it skips with the reason
+when the thing is missing, or fails under ``LOOKAHEAD_REQUIRE_SYSTEM=1`` (``make test`` sets it
+after running ``setup/system.sh``), so CI never skips one silently.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+VTEST_AVI = ROOT / ".cache" / "opencv-doc" / "vtest.avi"  # OpenCV's sample clip (Debian opencv-doc)
+
+
+def _missing(what: str) -> None:
+    message = f"{what} (run setup/system.sh as root)"
+    if os.environ.get("LOOKAHEAD_REQUIRE_SYSTEM") == "1":
+        pytest.fail(f"missing on this machine: {message}")
+    pytest.skip(f"missing: {message}")
+
+
+def require_file(path: Path, what: str) -> Path:
+    """``path`` if it exists and is not empty, else skip (or fail under make test)."""
+    if not (path.is_file() and path.stat().st_size > 0):
+        _missing(f"{what} at {path}")
+    return path
+
+
+def require_command(name: str) -> str:
+    """The full path of the program ``name``, else skip (or fail under make test)."""
+    found = shutil.which(name)
+    if found is None:
+        _missing(f"program {name}")
+    return found  # type: ignore[return-value]
+
+
+def vtest_avi() -> Path:
+    """OpenCV's sample clip vtest.avi (768x576, 795 frames of pedestrians)."""
+    return require_file(VTEST_AVI, "OpenCV's sample clip vtest.avi")
