@@ -37,6 +37,25 @@ fills it from true kinematics, the estimator from its tracks; both call
   (risk >= HIGH, i.e. in path and TTC or closing range under the HIGH
   thresholds) > ``approaching`` (range rate < -deadband) > ``receding``
   (> +deadband) > ``stable``.
+
+Without ego speed (``ego_speed`` NaN: ``EgoOdometry.speed_known`` False, real video
+without a speed source) only what relative motion decides is assessed; nothing is
+computed from a guessed ego speed:
+
+* available: TTC (range / closing speed), the labels (range rate, risk), in-path
+  and risk, from the estimator's relative estimates;
+* ETTC falls back to TTC (the enhanced model needs both bodies' ground speeds to
+  tell when a braking one stops -- as with no acceleration known); the required
+  deceleration is NaN and does not enter risk;
+* the ego corridor is straight ahead (its curvature, yaw rate / speed, is
+  unavailable); the lateral prediction uses the relative lateral rate, which is
+  the same over the ground (the ego moves along its x axis);
+* risk: the TTC and range ladders (range above MEDIUM only while closing), in
+  path for HIGH and CRITICAL, CRITICAL's sure-path and sure-closing checks on the
+  relative TTC (``critical_rate_sigmas`` range-rate stds slower); alerts follow
+  that risk (an FCW from range and closing speed, like a camera-only FCW's);
+* behaviours describe motion over the ground (standing, stopped, wrong-way ...):
+  ``Behaviour.UNKNOWN``.
 """
 
 from __future__ import annotations
@@ -272,7 +291,8 @@ def in_path(
     lateral stds (``Kinematics.lateral_sigma``) further out (ground truth: no std, the same test);
     ``significance``: z of the lateral motion taken as real (default ``motion_significance``)."""
     r = np.asarray(k.range, dtype=np.float64)
-    curvature = ego_yaw_rate / max(ego_speed, 1.0)
+    # the ego path's curvature; without ego speed (NaN) unavailable: a straight corridor
+    curvature = ego_yaw_rate / max(ego_speed, 1.0) if np.isfinite(ego_speed) else 0.0
     centre = 0.5 * curvature * np.maximum(r, 0.0) ** 2
     half = config.ego_half_width + config.corridor_margin + np.asarray(k.half_width)
     d0 = np.asarray(k.lateral) - centre
@@ -331,8 +351,19 @@ def _slower(v_o: np.ndarray, k: Kinematics, z: float) -> np.ndarray:
     return v_o + z * np.nan_to_num(np.asarray(k.range_rate_sigma, dtype=np.float64), nan=1e6)
 
 
+def _slower_ttc(
+    k: Kinematics, r: np.ndarray, rr: np.ndarray, v_o: np.ndarray, a_o: np.ndarray, z: float,
+    ego_speed: float, ego_accel: float,
+) -> np.ndarray:
+    """ETTC closing ``z`` range-rate stds more slowly than estimated; without ego speed (NaN) the
+    constant-closing-speed TTC on the relative range rate."""
+    if np.isfinite(ego_speed):
+        return enhanced_ttc(r, _slower(v_o, k, z), a_o, ego_speed, ego_accel)
+    return time_to_collision(r, _slower(rr, k, z))
+
+
 def _confirmed_fast(
-    k: Kinematics, r: np.ndarray, v_o: np.ndarray, a_o: np.ndarray, t_crit: np.ndarray,
+    k: Kinematics, r: np.ndarray, rr: np.ndarray, v_o: np.ndarray, a_o: np.ndarray, t_crit: np.ndarray,
     config: IntentConfig, ego_speed: float, ego_yaw_rate: float, ego_accel: float,
 ) -> np.ndarray:
     """Young or unsettled tracks that may raise CRITICAL at once: at least ``fast_confirm_frames``
@@ -342,7 +373,7 @@ def _confirmed_fast(
     whose speed is still unknown."""
     old_enough = np.asarray(k.age) >= config.fast_confirm_frames
     z = config.critical_motion_significance
-    late = enhanced_ttc(r, _slower(v_o, k, z), a_o, ego_speed, ego_accel) < t_crit
+    late = _slower_ttc(k, r, rr, v_o, a_o, z, ego_speed, ego_accel) < t_crit
     inside = in_path(k, np.zeros(len(r)), config, ego_speed, ego_yaw_rate, config.critical_path_sigmas,
                      look_ahead=False, significance=z)
     return old_enough & inside & late
@@ -353,7 +384,11 @@ def assess(
     ego_accel: float = 0.0,
 ) -> Assessment:
     """TTC, enhanced TTC, required deceleration, in-path flag, risk, intent label and
-    behaviour for every object (ego speed m/s, yaw rate rad/s, acceleration m/s^2)."""
+    behaviour for every object (ego speed m/s, yaw rate rad/s, acceleration m/s^2).
+
+    ``ego_speed`` NaN: the ego's speed is unknown -- relative assessment only (module
+    docstring, "Without ego speed": ETTC = TTC, required deceleration NaN, straight corridor,
+    behaviours ``UNKNOWN``)."""
     th = _threshold_table(config)
     n = len(k)
     if n == 0:
@@ -363,10 +398,14 @@ def assess(
     r = np.asarray(k.range, dtype=np.float64)
     rr = np.asarray(k.range_rate, dtype=np.float64)
     ttc = time_to_collision(r, rr)
-    v_o = rr + ego_speed  # the object's ground speed along x, consistent with the range rate
+    speed_known = bool(np.isfinite(ego_speed))
+    v_o = rr + ego_speed  # the object's ground speed along x, consistent with the range rate (NaN: unknown)
     a_o = np.zeros(n) if k.accel_x is None else np.asarray(k.accel_x, dtype=np.float64)
-    ettc = enhanced_ttc(r, v_o, a_o, ego_speed, ego_accel)
-    decel = required_decel(r, v_o, a_o, ego_speed)
+    if speed_known:
+        ettc = enhanced_ttc(r, v_o, a_o, ego_speed, ego_accel)
+        decel = required_decel(r, v_o, a_o, ego_speed)
+    else:  # relative only: constant closing speed; the required deceleration is unavailable
+        ettc, decel = ttc.copy(), np.full(n, np.nan)
     path = in_path(k, ettc, config, ego_speed, ego_yaw_rate)
     closing = rr < -config.range_rate_deadband
     by_ttc = _ladder(ettc, th["t_crit"][g], th["t_high"][g])
@@ -382,8 +421,8 @@ def assess(
         risk = np.where(sure, risk, np.minimum(risk, int(Risk.HIGH)))
     if config.critical_rate_sigmas > 0.0 and k.range_rate_sigma is not None:  # ... and a sure closing speed
         slower = _slower(v_o, k, config.critical_rate_sigmas)
-        sure_ttc = enhanced_ttc(r, slower, a_o, ego_speed, ego_accel) < th["t_crit"][g]
-        sure_decel = required_decel(r, slower, a_o, ego_speed) >= th["a_crit"][g]
+        sure_ttc = _slower_ttc(k, r, rr, v_o, a_o, config.critical_rate_sigmas, ego_speed, ego_accel) < th["t_crit"][g]
+        sure_decel = required_decel(r, slower, a_o, ego_speed) >= th["a_crit"][g]  # NaN: False
         sure_dist = by_dist == int(Risk.CRITICAL)
         risk = np.where(sure_ttc | sure_decel | sure_dist, risk, np.minimum(risk, int(Risk.HIGH)))
     risk = np.where(r < -1.0, int(Risk.SAFE), risk)
@@ -397,14 +436,14 @@ def assess(
     if k.settled is not None:  # a prediction without a converged velocity (or any estimate) yet
         init |= np.asarray(k.settled, dtype=np.float64) != 1.0
     if k.age is not None and np.any(init):
-        init &= ~_confirmed_fast(k, r, v_o, a_o, th["t_crit"][g], config, ego_speed, ego_yaw_rate, ego_accel)
+        init &= ~_confirmed_fast(k, r, rr, v_o, a_o, th["t_crit"][g], config, ego_speed, ego_yaw_rate, ego_accel)
     label = np.where(init, Label.INITIALIZING, label)
     return Assessment(
         ttc=ttc,
         in_path=path,
         risk=risk.astype(np.int64),
         label=label.astype(np.int64),
-        behaviour=behaviours(k, config, th),
+        behaviour=behaviours(k, config, th) if speed_known else np.full(n, int(Behaviour.UNKNOWN), dtype=np.int64),
         ettc=ettc,
         decel_req=decel,
     )

@@ -38,13 +38,26 @@ def resolve_detector(spec: DetectorSpec, render: bool) -> DetectorSpec:
 
 
 def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detector:
-    """The detector of ``spec`` (``gt`` noise model seeded with ``seed``, or an ``onnx`` model, see
-    ``resolve_detector``); ``SettingsError`` for ``onnx`` without images (``render`` False)."""
+    """The detector of ``spec`` (``gt`` noise model seeded with ``seed``, an ``onnx`` model, see
+    ``resolve_detector``, the ``hog`` people detector with ``spec.options``, or a ``plugin`` made
+    with ``spec.options``, ``perception.plugins``); ``SettingsError`` for ``onnx`` or ``hog``
+    without images (``render`` False); ``PluginError`` for a plug-in that cannot be made."""
     spec = resolve_detector(spec, render)
+    if spec.kind == "plugin":
+        from lookahead.perception.plugins import load_detector
+
+        return load_detector(spec.plugin or "", spec.options)
+    if spec.kind == "hog":
+        if not render:
+            raise SettingsError("perception.detector.kind: hog needs rendered frames, and rendering is off")
+        from lookahead.perception.detectors.hog_detector import HogConfig, HogDetector
+
+        return HogDetector(HogConfig.model_validate(spec.options))
     if spec.kind == "onnx":
         if not render:
             raise SettingsError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
-        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows)
+        return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows,
+                            layout=spec.layout)
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
 
 
@@ -68,10 +81,41 @@ class PerceptionStack:
         self.intent_config = intent_config
         self.alerts = AlertManager(alert_config)
 
+    def reconfigure(
+        self, *, intent_config: IntentConfig | None = None, alert_config: AlertConfig | None = None,
+        detector_conf: float | None = None, detector_iou: float | None = None,
+    ) -> None:
+        """New thresholds from the next ``process`` on (``intent.live_config``); what is None stays.
+
+        Only settings read afresh every frame: the intent thresholds, the alerts' debounce and
+        hysteresis, and the detector's score (``detector_conf``) and NMS IoU (``detector_iou``)
+        thresholds. Tracks, their estimates and the alerts' per-track state are kept: a debounce
+        under way counts on against the new ``on_frames``, an alert on stays on until the new
+        thresholds and ``off_frames`` clear it. ``SettingsError``, and nothing changed, when the
+        detector has no such threshold (e.g. the ``gt`` detector).
+        """
+        for arg, attr, value in (("detector_conf", "conf_threshold", detector_conf),
+                                 ("detector_iou", "iou_threshold", detector_iou)):
+            if value is not None and not hasattr(self.detector, attr):
+                name = getattr(self.detector, "name", type(self.detector).__name__)
+                raise SettingsError(f"{arg}: the detector {name} has no {attr.replace('_', ' ')} to set")
+        if intent_config is not None:
+            self.intent_config = intent_config
+        if alert_config is not None:
+            self.alerts.config = alert_config
+        if detector_conf is not None:
+            self.detector.conf_threshold = float(detector_conf)  # type: ignore[attr-defined]
+        if detector_iou is not None:
+            self.detector.iou_threshold = float(detector_iou)  # type: ignore[attr-defined]
+
     def process(
         self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
     ) -> tuple[Detections, Tracks, Estimates, Assessment, list[Alert]]:
-        """One frame through every stage; stage times (ms) go into ``timings``."""
+        """One frame through every stage; stage times (ms) go into ``timings``.
+
+        A frame without ego speed (``frame.odometry.speed_known`` False) is assessed on relative
+        motion only: the estimator marks what needs the ego's speed NaN and ``assess`` is given a
+        NaN ego speed (``intent.labels``, "Without ego speed")."""
         tp = time.perf_counter()
         image = self.preprocess(frame.image)
         t0 = time.perf_counter()
@@ -83,7 +127,8 @@ class PerceptionStack:
         t3 = time.perf_counter()
         kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
         odo = frame.odometry
-        assessment = assess(kin, self.intent_config, odo.speed, odo.yaw_rate, odo.accel)
+        ego_speed = odo.speed if getattr(odo, "speed_known", True) else float("nan")  # NaN: unknown, not 0
+        assessment = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
         alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
         t4 = time.perf_counter()
         timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3,
@@ -129,7 +174,8 @@ def build_stack(
         frame_rate: camera frames per second (the tracker's time base).
         intent: the intent thresholds, or overrides of their defaults (a scenario's ``intent``).
         alerts: debounce and hysteresis (a scenario's ``alerts``); None = the defaults.
-        detector: used instead of the one ``perception.detector`` describes (e.g. recorded boxes).
+        detector: used instead of the one ``perception.detector`` describes (e.g. recorded boxes);
+            without it, ``perception.stack`` (a stack plug-in) replaces detector, tracker and estimator.
         seed: seeds the ``gt`` detector's noise.
         render: whether frames carry camera images (``auto`` picks the detector by it).
 
@@ -138,6 +184,11 @@ def build_stack(
     """
     if not isinstance(intent, IntentConfig):
         intent = IntentConfig().with_overrides(dict(intent or {}))
+    if perception.stack is not None and detector is None:
+        from lookahead.intent.plugins import load_stack  # (imports this module)
+
+        return load_stack(perception.stack.plugin, perception.stack.options, camera, frame_rate, intent=intent,
+                          alerts=alerts)
     return PerceptionStack(
         detector or build_detector(perception.detector, seed, render), camera, frame_rate, intent,
         perception.tracker_config(), perception.estimator_config(), alert_config=alerts,

@@ -90,12 +90,22 @@ EstimatorOverrides = Annotated[dict[str, Any], Overrides(_check_estimator, Estim
 
 class DetectorSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    kind: Literal["auto", "gt", "onnx"] = Field(
-        "auto", description="auto: onnx (the shipped model) when rendering, else gt"
+    kind: Literal["auto", "gt", "onnx", "hog", "plugin"] = Field(
+        "auto", description="auto: onnx (the shipped model) when rendering, else gt; hog: OpenCV's HOG people "
+        "detector (perception.detectors.hog_detector, pedestrians only, options: HogConfig); plugin: your own "
+        "(plugin, options; docs/plugins.md)",
     )
     model: str | None = Field(None, description="onnx model file; default models/lookahead-det.onnx")
     conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score")
     iou: float = Field(0.45, gt=0.0, le=1.0, description="onnx: per-class NMS IoU threshold")
+    layout: Literal["auto", "yolov5", "yolov8", "yolox", "end2end"] = Field(
+        "auto",
+        description="onnx: output layout. yolov5 [1, N, 5+C] (also YOLOv7, decoded YOLOX); yolov8 [1, 4+C, N]; "
+        "yolox: raw YOLOX [1, N, 5+C], one row per grid cell of strides 8, 16, 32, decoded here; end2end "
+        "[1, N, 6] rows x1, y1, x2, y2, score, class id, NMS-free (YOLOv10, Ultralytics end2end/nms exports). "
+        "auto: the model's metadata (layout / model_type, Ultralytics end2end), else the shape and class count "
+        "(perception.detectors.onnx_detector)",
+    )
     windows: list[Annotated[tuple[float, ...], Field(min_length=4, max_length=5)]] = Field(
         default_factory=lambda: list(DEFAULT_WINDOWS),
         description="onnx: zoom windows x0, y0, x1, y1 (fractions of the image) and an optional zoom (model-input "
@@ -104,6 +114,31 @@ class DetectorSpec(BaseModel):
         "Default: the middle half around the horizon (2x at 640 x 360); [] for the whole frame only",
     )
     noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")
+    plugin: str | None = Field(
+        None, description="plugin: 'module:factory' (or 'file.py:factory') or the name of an entry point in group "
+        "lookahead.detectors; the factory is called with options and returns an object with "
+        "detect(image, truth=None) -> Detections (docs/plugins.md)",
+    )
+    options: dict[str, Any] = Field(
+        default_factory=dict, description="keyword options: plugin: for its factory; hog: HogConfig fields"
+    )
+
+    @model_validator(mode="after")
+    def _plugin(self) -> DetectorSpec:
+        if self.kind == "plugin" and not (self.plugin or "").strip():
+            raise ValueError("kind plugin needs plugin: 'module:factory' or an installed plug-in's name")
+        if self.plugin is not None and self.kind != "plugin":
+            raise ValueError(f"plugin is for kind plugin, not {self.kind}")
+        if self.kind == "hog":
+            from lookahead.perception.detectors.hog_detector import HogConfig
+
+            try:
+                HogConfig.model_validate(self.options)
+            except ValidationError as e:
+                raise relocated(e, ("options",)) from None
+        elif self.options and self.kind != "plugin":
+            raise ValueError(f"options are for kinds hog and plugin, not {self.kind}")
+        return self
 
     @field_validator("windows", mode="after")
     @classmethod
@@ -111,9 +146,25 @@ class DetectorSpec(BaseModel):
         return list(check_windows(v))  # ValueError: which window, what was expected
 
 
+class StackSpec(BaseModel):
+    """A whole perception stack from a plug-in (frame -> tracks with range and velocity), under
+    lookahead's intent and alerts (``intent.plugins.load_stack``; docs/plugins.md)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    plugin: str = Field(
+        ..., min_length=1, description="'module:factory' (or 'file.py:factory') or the name of an entry point in "
+        "group lookahead.stacks; the factory returns an object with process(frame, truth=None)",
+    )
+    options: dict[str, Any] = Field(default_factory=dict, description="keyword options for the factory")
+
+
 class PerceptionSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     detector: DetectorSpec = Field(default_factory=DetectorSpec)
+    stack: StackSpec | None = Field(
+        None, description="a stack plug-in that replaces detector, tracker and estimator (docs/plugins.md); "
+        "intent and alerts stay lookahead's",
+    )
     tracker: TrackerOverrides = Field(default_factory=dict, description="perception.tracker.TrackerConfig overrides")
     estimator: EstimatorOverrides = Field(
         default_factory=dict, description="perception.estimator.EstimatorConfig overrides"

@@ -102,6 +102,27 @@ is slower than ``min_speed_accel`` / ``min_speed_yaw``.
 
 Call ``update`` every frame, also with no tracks, so ego motion accumulates.
 Filters of tracks unseen for more than ``max_coast_s`` are dropped.
+
+Without ego speed
+-----------------
+``EgoOdometry.speed_known`` False (real video without a speed source): the
+filters' velocity is the object's velocity *relative to the ego's translation*
+(ego speed 0 in the compensation above; the ego's yaw rate is still applied),
+with a broader x prior (``UNKNOWN_EGO_SPEED_SIGMA`` added in quadrature: a
+parked car closes at the ego's speed) and the ego's unknown acceleration as
+extra process noise on x (``UNKNOWN_EGO_ACCEL_SIGMA``). Relative quantities are
+estimated as usual: range, lateral, half_width, range_rate, lateral_rate,
+range_rate_sigma, settled, ttc (range / closing speed), height, and ground_vy /
+ground_vy_sigma (the ego moves along its own x axis, so lateral velocity is the
+same relative and over the ground). Whatever needs the ego's speed is NaN --
+unavailable, not guessed (``Estimator.NEEDS_EGO_SPEED``): ground_vx and its std,
+accel_x and its std, accel and yaw_rate of the motion over the ground; the
+heading used for the contact offset is road-aligned and no ground-velocity
+history is kept. When the speed's availability changes, every filter's x
+velocity is shifted by the ego speed at the change (the last known one held
+over the interval when it goes; the new one when it comes back) and the
+histories restart, so tracks carry on. The tracker works in pixels and uses no
+odometry.
 """
 
 from __future__ import annotations
@@ -124,6 +145,13 @@ __all__ = ["ClassPrior", "Estimates", "Estimator", "EstimatorConfig", "Measureme
 log = logging.getLogger(__name__)
 
 _BEARING_ONLY_SIGMA = 100.0  # m, range std of a bearing-only measurement
+#: Without ego speed (``EgoOdometry.speed_known`` False): the std (m/s) of the unknown ego speed,
+#: added in quadrature to a new filter's x-velocity prior (the velocity is relative then, and a
+#: parked car ahead of an ego at 50 km/h closes at 14 m/s) ...
+UNKNOWN_EGO_SPEED_SIGMA = 15.0
+#: ... and the std (m/s^2) of the ego's unknown acceleration, white acceleration noise added to
+#: the x axis of every model (the ego's braking moves every relative velocity).
+UNKNOWN_EGO_ACCEL_SIGMA = 2.0
 
 
 @dataclass
@@ -133,7 +161,9 @@ class Estimates:
     range: nearest point's ego x (m); range_sigma: its std (m); lateral: centre
     y (m, left +); half_width: half the y extent (m); range_rate /
     lateral_rate: velocity relative to the (rotating) ego frame (m/s);
-    ground_vx / ground_vy: velocity over the ground in ego axes (m/s); accel:
+    ground_vx / ground_vy: velocity over the ground in ego axes (m/s; ground_vx NaN
+    without ego speed, like ground_vx_sigma, accel_x(_sigma), accel and yaw_rate:
+    ``Estimator.NEEDS_EGO_SPEED``); accel:
     along the motion (m/s^2, NaN unknown); yaw_rate: of the object's motion
     (rad/s, NaN unknown); ttc: time to collision (s, inf when not closing);
     range_rate_sigma: the filter's std of range_rate (m/s), which tells how far
@@ -351,6 +381,7 @@ class Estimator:
         self._speed = 0.0
         self._yaw_rate = 0.0
         self._ego_yaw = 0.0  # integrated ego heading since the first frame (rad)
+        self._relative = False  # filter velocities relative to the ego (no ego speed), not over the ground
 
     @property
     def num_filters(self) -> int:
@@ -390,21 +421,40 @@ class Estimator:
         (the ones given to the tracker this frame), a track matched this frame
         is measured on its raw detection box (``det_index``) rather than on
         the tracker's smoothed box, so the two filters do not stack their lag.
+
+        ``odometry.speed_known`` False (see "Without ego speed" in the module docstring): the
+        filters run on velocities relative to the ego and the fields that need the ego's speed
+        are NaN; a change of the speed's availability converts the filters at the change.
         """
         cfg = self.config
         speed, yaw_rate = self._odometry(odometry)
+        known = odometry is None or bool(getattr(odometry, "speed_known", True))
+        if not known:
+            speed = 0.0  # the filters' velocities are relative: the ego's translation is theirs
         t = float(t)
         if not np.isfinite(t):
             log.warning("non-finite time %r: estimates are NaN", t)
             return Estimates.empty(len(tracks))
         if self._t is not None:
             dt = t - self._t
+            was_known = not self._relative
+            w_mean = 0.5 * (yaw_rate + self._yaw_rate)
             if dt < 0.0:
                 log.warning("time went back from %.3f to %.3f s: resetting the estimator", self._t, t)
                 self.reset()
-            elif dt > 0.0:
-                self._advance(dt, 0.5 * (speed + self._speed), 0.5 * (yaw_rate + self._yaw_rate))
+            elif known == was_known:
+                if dt > 0.0:
+                    self._advance(dt, 0.5 * (speed + self._speed), w_mean, relative=not known)
+            elif known:  # the speed is back: relative over the interval, then over the ground
+                if dt > 0.0:
+                    self._advance(dt, 0.0, w_mean, relative=True)
+                self._shift_velocity(speed)
+            else:  # the speed is gone: the last one held over the interval, then relative
+                if dt > 0.0:
+                    self._advance(dt, self._speed, w_mean, relative=False)
+                self._shift_velocity(-self._speed)
         self._t, self._speed, self._yaw_rate = t, speed, yaw_rate
+        self._relative = not known
 
         n = len(tracks)
         meas = self.measure(self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks))
@@ -436,7 +486,7 @@ class Estimator:
                 a, hw_i = cfg.half_width_alpha, float(meas.half_width[i])
                 trk.half_width = hw_i if np.isnan(trk.half_width) else a * hw_i + (1 - a) * trk.half_width
                 self._add_height(trk, meas, i)
-                if trk.updates >= cfg.settle_updates:
+                if trk.updates >= cfg.settle_updates and not self._relative:  # ground velocities only
                     v_w = to_world @ trk.kf.x[2:4]
                     trk.history.append((t, v_w[0], v_w[1]))
                 while trk.history and trk.history[0][0] < t - cfg.history_s - 1e-9:
@@ -457,11 +507,29 @@ class Estimator:
             settled[i] = float(trk.settled)
             hw[i] = trk.half_width
             height[i] = trk.height_sum / trk.height_info if trk.height_info > 0 else np.nan
-            hist[i] = trk.history if trk.updates >= cfg.settle_updates else None
+            hist[i] = trk.history if trk.updates >= cfg.settle_updates and not self._relative else None
 
         for tid in [k for k, f in self._filters.items() if t - f.last_update > cfg.max_coast_s]:
             del self._filters[tid]
-        return self._outputs(state, p_diag, p_rr, settled, hw, height, hist, speed, yaw_rate)
+        est = self._outputs(state, p_diag, p_rr, settled, hw, height, hist, speed, yaw_rate)
+        if self._relative:  # over-ground quantities need the ego's speed: unavailable, not guessed
+            for name in self.NEEDS_EGO_SPEED:
+                getattr(est, name)[:] = np.nan
+        return est
+
+    #: ``Estimates`` fields that need the ego's speed, NaN without it: the object's velocity and
+    #: acceleration over the ground along the ego's x axis (ground_vy stays: the ego moves along
+    #: its own x axis, so the lateral velocity is the same relative and over the ground) and the
+    #: accel / yaw rate of its motion over the ground.
+    NEEDS_EGO_SPEED = ("ground_vx", "ground_vx_sigma", "accel", "yaw_rate", "accel_x", "accel_x_sigma")
+
+    def _shift_velocity(self, dv: float) -> None:
+        """Add ``dv`` (m/s) to every filter's x velocity (ground <-> relative at a change of the ego
+        speed's availability; the covariance is unchanged) and forget the ground-velocity histories."""
+        for trk in self._filters.values():
+            trk.kf.xs[:, 2] += dv
+            trk.kf._combine()
+            trk.history.clear()
 
     def _add_height(self, trk: _TrackFilter, meas: Measurement, i: int) -> None:
         """Fuse this frame's height evidence into the track's height: the class prior
@@ -503,6 +571,8 @@ class Estimator:
         (aligned with the road); a velocity component under ``heading_min_sigmas`` of its
         std counts as 0 (a bus's lateral noise must not turn it across the road)."""
         out = np.ones(len(tracks))
+        if self._relative:  # without ego speed the heading over the ground is unknown: road-aligned
+            return out
         for i, tid in enumerate(tracks.track_id):
             trk = self._filters.get(int(tid))
             if trk is None or not trk.settled:  # a velocity not yet converged says nothing of the heading
@@ -538,8 +608,9 @@ class Estimator:
             v, w = (v if np.isfinite(v) else 0.0), (w if np.isfinite(w) else 0.0)
         return v, w
 
-    def _process(self, dt: float, class_id: int) -> list[tuple[np.ndarray, np.ndarray]]:
-        """(F, Q) over ``dt`` (s) of each model: [cv], [ca] or [quiet cv, ca] (``imm``)."""
+    def _process(self, dt: float, class_id: int, relative: bool = False) -> list[tuple[np.ndarray, np.ndarray]]:
+        """(F, Q) over ``dt`` (s) of each model: [cv], [ca] or [quiet cv, ca] (``imm``); ``relative``
+        (no ego speed): plus white acceleration noise ``UNKNOWN_EGO_ACCEL_SIGMA`` on the x axis."""
         # lazy: filterpy.common pulls in filterpy.kalman and scipy.stats (~0.6 s), which every
         # command that only reads a scenario would pay at start-up
         from filterpy.common import Q_continuous_white_noise, Q_discrete_white_noise
@@ -565,6 +636,9 @@ class Estimator:
                 f[0, 4] = f[1, 5] = 0.5 * dt * dt  # p += a dt^2 / 2
                 dens = float(self.prior_of(cid, "jerk_sigma")[0]) ** 2
                 q = Q_continuous_white_noise(3, dt=dt, spectral_density=dens, block_size=2, order_by_dim=False)
+            if relative:
+                q = q.copy()
+                q[np.ix_([0, 2], [0, 2])] += Q_discrete_white_noise(2, dt=dt, var=UNKNOWN_EGO_ACCEL_SIGMA**2)
             models.append((f, q))
         return models
 
@@ -575,8 +649,9 @@ class Estimator:
         p10 = 1.0 - np.exp(-dt / cfg.imm_manoeuvre_s)
         return np.array([[1.0 - p01, p01], [p10, 1.0 - p10]])
 
-    def _advance(self, dt: float, speed: float, yaw_rate: float) -> None:
-        """Re-express every filter in the new ego frame, then predict it by ``dt``."""
+    def _advance(self, dt: float, speed: float, yaw_rate: float, relative: bool = False) -> None:
+        """Re-express every filter in the new ego frame, then predict it by ``dt`` (``relative``:
+        velocities relative to the ego, ``speed`` 0 -- the ego's translation is in them)."""
         theta = yaw_rate * dt
         chord = speed * dt * np.sinc(theta / (2.0 * np.pi))
         shift = chord * np.array([np.cos(theta / 2.0), np.sin(theta / 2.0)])
@@ -588,7 +663,7 @@ class Estimator:
         for trk in self._filters.values():
             trk.kf.transform(jac, shift)
             if trk.class_id not in models:
-                models[trk.class_id] = self._process(dt, trk.class_id)
+                models[trk.class_id] = self._process(dt, trk.class_id, relative)
             trk.kf.predict(models[trk.class_id], trans)
 
     def _update(self, trk: _TrackFilter, z: np.ndarray, r: np.ndarray) -> str:
@@ -624,9 +699,12 @@ class Estimator:
         yaw_rate: float,
     ) -> _TrackFilter:
         """Filter at the measurement; ground velocity from the class prior N(0, speed_sigma^2)
-        per axis, optionally fused with the tracker's box rates (scale change)."""
+        per axis, optionally fused with the tracker's box rates (scale change). Without ego speed
+        (relative velocities) the x axis's prior std has ``UNKNOWN_EGO_SPEED_SIGMA`` added in quadrature."""
         cfg, cam = self.config, self.camera
-        var0 = float(self.prior_of(np.array([cls]), "speed_sigma")[0]) ** 2
+        var0 = np.full(2, float(self.prior_of(np.array([cls]), "speed_sigma")[0]) ** 2)
+        if self._relative:
+            var0[0] += UNKNOWN_EGO_SPEED_SIGMA**2
         ground, var = np.zeros(2), var0
         if cfg.init_from_box_rates:
             xc = z[0] - cam.mount[0]
@@ -645,7 +723,7 @@ class Estimator:
         x[:4] = np.concatenate([z, ground])
         p = np.zeros((6, 6))
         p[:2, :2] = r
-        p[2:4, 2:4] = np.eye(2) * var
+        p[2:4, 2:4] = np.diag(var)
         mu = {"cv": [1.0], "ca": [1.0], "imm": [cfg.imm_init_quiet, 1.0 - cfg.imm_init_quiet]}[cfg.motion_model]
         if cfg.motion_model != "cv":
             p[4:, 4:] = np.eye(2) * cfg.init_accel_sigma**2

@@ -11,11 +11,16 @@ from lookahead.perception.camera import CameraModel
 
 @dataclass
 class EgoOdometry:
-    """Ego motion at the frame time: speed (m/s), longitudinal accel (m/s^2), yaw rate (rad/s, left +)."""
+    """Ego motion at the frame time: speed (m/s), longitudinal accel (m/s^2), yaw rate (rad/s, left +).
+
+    ``speed_known`` False: no source gives the ego's speed (real video without a speed log);
+    ``speed`` is then 0 and the estimates that need it are marked unavailable, not guessed.
+    """
 
     speed: float = 0.0
     accel: float = 0.0
     yaw_rate: float = 0.0
+    speed_known: bool = True
 
     def to_dict(self) -> dict:
         return {"speed": round(self.speed, 4), "accel": round(self.accel, 4), "yaw_rate": round(self.yaw_rate, 5)}

@@ -1,9 +1,12 @@
 """Frame sources for real video, and a capture thread that reads one ahead of the consumer.
 
 ``open_source(spec)`` opens a video file, a folder of images, a camera index or a stream URL
-(``rtsp://``, ``http(s)://``) as a ``FrameSource``: an iterable of ``CapturedFrame`` (RGB uint8).
-Live sources (camera, URL) reconnect with exponential backoff when a read fails and record each
-outage as a ``SourceGap``; files never reconnect, and a corrupt or truncated file simply ends.
+(``rtsp://``, ``http(s)://``, ... ``URL_SCHEMES``) as a ``FrameSource``: an iterable of
+``CapturedFrame`` (RGB uint8). Live sources (camera, stream URL) reconnect with exponential
+backoff (``ReconnectPolicy``: bounded, configurable) when a read fails or times out, and record
+each outage as a ``SourceGap``; the frames before it were already handed on, and the indices
+continue after it. Files (an ``http(s)://`` URL whose capture reports a frame count is a file)
+never reconnect, and a corrupt or truncated file simply ends.
 
 ``CaptureThread(source)`` reads a source in a daemon thread into a bounded queue: a live source
 drops the oldest queued frame when the consumer falls behind (latest wins), a file source never
@@ -36,7 +39,10 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp")
-URL_SCHEMES = ("rtsp", "rtsps", "http", "https")
+#: Stream URL schemes (read through FFmpeg); all live except ``FILE_OR_LIVE_SCHEMES``.
+URL_SCHEMES = ("rtsp", "rtsps", "rtmp", "rtmps", "rtp", "srt", "udp", "tcp", "http", "https")
+#: URL schemes that are live only if the capture reports no frame count (else a video file on a server).
+FILE_OR_LIVE_SCHEMES = ("http", "https")
 #: Frame rate assumed when neither the container nor the caller gives one (frames/s).
 DEFAULT_FPS = 30.0
 
@@ -63,7 +69,11 @@ class CapturedFrame:
 @dataclass(frozen=True)
 class ReconnectPolicy:
     """Exponential backoff for live sources: wait ``initial_s`` before the first reopen, times
-    ``factor`` each further attempt, at most ``max_s`` (s); give up after ``max_attempts``."""
+    ``factor`` each further attempt, at most ``max_s`` (s); give up after ``max_attempts``
+    reopens of one outage (a reconnect that works starts the next outage from ``initial_s``).
+
+    An outage therefore ends within ``total_wait_s()`` plus ``max_attempts`` open timeouts
+    (``STREAM_TIMEOUTS_MS``) for a stream."""
 
     initial_s: float = 0.5
     factor: float = 2.0
@@ -78,6 +88,10 @@ class ReconnectPolicy:
         """Wait before reopen attempt ``attempt`` (0-based), s."""
         return min(self.initial_s * self.factor**attempt, self.max_s)
 
+    def total_wait_s(self) -> float:
+        """The sum of the waits before giving up, s."""
+        return sum(self.delay(k) for k in range(self.max_attempts))
+
 
 @dataclass
 class SourceGap:
@@ -87,6 +101,11 @@ class SourceGap:
     after_index: int
     lost_at: float
     resumed_at: float | None = None
+
+    @property
+    def duration(self) -> float | None:
+        """How long frames stopped (s), None while (or if) they did not resume."""
+        return None if self.resumed_at is None else self.resumed_at - self.lost_at
 
 
 class Capture(Protocol):
@@ -101,22 +120,51 @@ class Capture(Protocol):
 #: Creates the capture for a target (a path, a URL or a camera index); ``default_capture`` by default.
 CaptureFactory = Callable[[str | int], Capture]
 
-#: Stream open and read timeouts (ms), so a dead camera fails a read instead of hanging it.
+#: Stream open and read timeouts (ms), so a dead camera or a stalled stream fails a read (and
+#: is reconnected) instead of hanging it. A server that goes away closes the connection, which
+#: fails the read at once.
 STREAM_TIMEOUTS_MS = (10_000, 5_000)
+
+#: FFmpeg options for a stream URL, in ``OPENCV_FFMPEG_CAPTURE_OPTIONS`` syntax, used unless that
+#: variable is set (then it is used as it is): RTSP over TCP when the server offers it (OpenCV's
+#: own default), and no frame-rate probing (``fpsprobesize``), which would otherwise hold back
+#: the first 20 frames (2 s at 10 frames/s) at every (re)connect and then hand them on at once,
+#: where a live ``CaptureThread`` would drop all but the last few. The frame rate still comes
+#: from the stream's description when it has one.
+STREAM_FFMPEG_OPTIONS = "rtsp_flags;prefer_tcp|fpsprobesize;0"
+_FFMPEG_OPTIONS_VAR = "OPENCV_FFMPEG_CAPTURE_OPTIONS"
+_env_lock = threading.Lock()
+
+
+def is_url(target: str | int | os.PathLike[str]) -> bool:
+    """Whether ``target`` is a stream URL (``URL_SCHEMES``)."""
+    return isinstance(target, str) and urlsplit(target).scheme.lower() in URL_SCHEMES
 
 
 def default_capture(target: str | int) -> Capture:
-    """``cv2.VideoCapture(target)``; for a URL through FFmpeg with ``STREAM_TIMEOUTS_MS``.
+    """``cv2.VideoCapture(target)``; for a URL through FFmpeg with ``STREAM_TIMEOUTS_MS`` and
+    ``STREAM_FFMPEG_OPTIONS``.
 
     FFmpeg's own log lines ("moov atom not found", ...) would reach the user's terminal beside
     our one-line errors and warnings: they are silenced unless ``OPENCV_FFMPEG_LOGLEVEL`` is set
     (e.g. 24 to see them; OpenCV reads it when its FFmpeg backend first opens a file)."""
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
-    if isinstance(target, str) and urlsplit(target).scheme.lower() in URL_SCHEMES:
+    # OpenCV takes FFmpeg's options only from the environment, when it opens: they are set for
+    # a stream's open alone, under a lock that the other opens here wait for (a capture opened
+    # elsewhere in the process at that moment would see them too)
+    with _env_lock:
+        if not (isinstance(target, str) and is_url(target)):
+            return cv2.VideoCapture(target)
         open_ms, read_ms = STREAM_TIMEOUTS_MS
         params = [cv2.CAP_PROP_OPEN_TIMEOUT_MSEC, open_ms, cv2.CAP_PROP_READ_TIMEOUT_MSEC, read_ms]
-        return cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
-    return cv2.VideoCapture(target)
+        own = _FFMPEG_OPTIONS_VAR not in os.environ
+        if own:
+            os.environ[_FFMPEG_OPTIONS_VAR] = STREAM_FFMPEG_OPTIONS
+        try:
+            return cv2.VideoCapture(target, cv2.CAP_FFMPEG, params)
+        finally:
+            if own:
+                os.environ.pop(_FFMPEG_OPTIONS_VAR, None)
 
 
 def to_rgb(image: np.ndarray) -> np.ndarray:
@@ -134,7 +182,7 @@ def display_name(target: str | int) -> str:
         return f"camera {target}"
     name = str(target)
     parts = urlsplit(name)
-    if parts.scheme.lower() in URL_SCHEMES and parts.password is not None:
+    if is_url(name) and parts.password is not None:
         host = parts.hostname or ""
         netloc = f"{parts.username}:***@{host}" + (f":{parts.port}" if parts.port else "")
         name = urlunsplit(parts._replace(netloc=netloc))
@@ -198,21 +246,21 @@ class VideoSource(FrameSource):
     The capture comes from ``capture_factory(target)`` (``default_capture``), so tests
     and other backends can supply their own. A live source that fails a read reopens per
     ``reconnect``; a file ends at its first failed read (with a warning if the container promised
-    more frames). ``fps`` is the fallback frame rate when the container does not give one.
+    more frames). ``live=None`` decides from the capture: a file if it reports a frame count.
+    ``fps`` is the fallback frame rate when the container does not give one.
     """
 
     def __init__(
         self,
         target: str | int,
         *,
-        live: bool,
+        live: bool | None,
         fps: float | None = None,
         reconnect: ReconnectPolicy | None = None,
         capture_factory: CaptureFactory | None = None,
     ) -> None:
         super().__init__(display_name(target))
         self.target = target
-        self.live = live
         self.reconnect = reconnect or ReconnectPolicy()
         self._factory = capture_factory or default_capture
         self._cap: Capture | None = self.open_capture()
@@ -220,16 +268,18 @@ class VideoSource(FrameSource):
         if not self._cap.isOpened():
             self._cap.release()
             self._cap = None
-            kind = "camera" if isinstance(target, int) else "stream" if live else "video file"
+            kind = "camera" if isinstance(target, int) else "stream" if live or is_url(target) else "video file"
             raise SourceError(f"cannot open {kind} {self.name}: OpenCV could not open or decode it")
+        count = self._cap.get(cv2.CAP_PROP_FRAME_COUNT)
+        has_count = math.isfinite(count) and count > 0  # a live stream reports none (0, -1 or garbage)
+        self.live = live = (not has_count) if live is None else live
         container_fps = valid_fps(self._cap.get(cv2.CAP_PROP_FPS))
         self.fps = container_fps or valid_fps(fps) or (None if live else DEFAULT_FPS)
         if not live and container_fps is None and valid_fps(fps) is None:
             log.warning("%s: no frame rate in the file; assuming %.0f frames/s", self.name, DEFAULT_FPS)
         w, h = (int(self._cap.get(p)) for p in (cv2.CAP_PROP_FRAME_WIDTH, cv2.CAP_PROP_FRAME_HEIGHT))
         self.size = (w, h) if w > 0 and h > 0 else None
-        count = self._cap.get(cv2.CAP_PROP_FRAME_COUNT)
-        self.frame_count = int(count) if not live and math.isfinite(count) and count > 0 else None
+        self.frame_count = int(count) if not live and has_count else None
 
     def open_capture(self) -> Capture:
         """A new capture of ``target`` (override or pass ``capture_factory`` to change it)."""
@@ -348,8 +398,9 @@ def open_source(
     if isinstance(spec, int):
         return VideoSource(spec, live=True, fps=fps, reconnect=reconnect, capture_factory=capture_factory)
     text = os.fspath(spec)
-    if urlsplit(text).scheme.lower() in URL_SCHEMES:
-        return VideoSource(text, live=True, fps=fps, reconnect=reconnect, capture_factory=capture_factory)
+    if is_url(text):
+        live = None if urlsplit(text).scheme.lower() in FILE_OR_LIVE_SCHEMES else True
+        return VideoSource(text, live=live, fps=fps, reconnect=reconnect, capture_factory=capture_factory)
     path = Path(text).expanduser()
     if path.is_dir():
         return ImageFolderSource(path, fps=fps)

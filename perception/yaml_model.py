@@ -48,12 +48,20 @@ def field_path(loc: tuple) -> str:
     return ".".join(f"[{x}]" if isinstance(x, int) else str(x) for x in loc).replace(".[", "[")
 
 
-def format_validation(source: str, err: ValidationError, root: yaml.Node | None) -> str:
-    """One line for a pydantic error: ``source[:line]: field.path: message[, got value]``."""
+def format_validation(
+    source: str, err: ValidationError, root: yaml.Node | None = None, drop: tuple = (), under: tuple = (),
+) -> str:
+    """One line for a pydantic error: ``source[:line]: field.path: message[, got value]``.
+
+    ``drop``: a leading location to leave out (``perception`` for a replay config's ``tracker``);
+    ``under``: a location to put in front (``scenario`` for a run record's scenario)."""
     errors = err.errors()
     # an unknown field (a typo) explains the "missing" error that usually comes with it
     first = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
     loc = tuple(x for x in first["loc"] if not (isinstance(x, str) and x.startswith("function-")))
+    if drop and loc[: len(drop)] == drop:
+        loc = loc[len(drop):]
+    loc = (*under, *loc)
     msg = first["msg"].removeprefix("Value error, ")
     located = (first.get("ctx") or {}).get("error")
     if isinstance(located, LocatedError):

@@ -14,20 +14,8 @@ import numpy as np
 from highway_env.road.road import Road
 from highway_env.vehicle.kinematics import Vehicle
 
-from lookahead.sim.scenario import ActionSpec, ActorSpec, StepSpec
+from lookahead.sim.scenario import DEFAULT_ACCEL, ActionSpec, ActorSpec, StepSpec
 
-#: Comfortable |acceleration| (m/s^2) per class when a script gives none.
-DEFAULT_ACCEL = {
-    "pedestrian": 2.0,
-    "animal": 4.0,
-    "cyclist": 2.0,
-    "motorcyclist": 3.0,
-    "tricycle": 1.5,
-    "car": 3.0,
-    "truck": 2.0,
-    "bus": 2.0,
-    "obstacle": 1.0,
-}
 DEFAULT_TURN_RATE = {"pedestrian": 3.0, "animal": 3.0, "car": 0.6, "truck": 0.4, "bus": 0.4}
 LATERAL_SPEED_MAX = 1.2  # m/s during a scripted lane change or lateral move
 

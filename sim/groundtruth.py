@@ -58,6 +58,18 @@ class GroundTruth:
     ettc: np.ndarray | None = None  # (N,) enhanced TTC (s), intent.collision
     decel_req: np.ndarray | None = None  # (N,) the ego's required deceleration (m/s^2)
 
+    @classmethod
+    def empty(cls) -> GroundTruth:
+        """Ground truth of a frame without any (real video: ``lookahead watch``)."""
+        f = np.zeros(0)
+        i = np.zeros(0, dtype=np.int64)
+        return cls(
+            actor_id=i, name=[], cls=[], subtype=[], class_id=i, box3d=np.zeros((0, 7)), velocity=np.zeros((0, 2)),
+            amodal=np.zeros((0, 4)), projected=np.zeros((0, 4)), visible=np.zeros((0, 4)), visible_fraction=f,
+            pixels=i, truncation=f, range=f, lateral=f, range_rate=f, lateral_rate=f, accel=f, yaw_rate=f, ttc=f,
+            in_path=np.zeros(0, dtype=bool), label=i, behaviour=i, risk=i,
+        )
+
     def __len__(self) -> int:
         return len(self.actor_id)
 

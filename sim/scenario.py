@@ -34,6 +34,7 @@ from lookahead.perception.config import (  # noqa: F401  (DetectorSpec, Percepti
     Overrides,
     PerceptionSpec,
     SettingsError,
+    StackSpec,
     TrackerOverrides,
 )
 from lookahead.perception.detections import CLASSES
@@ -52,6 +53,19 @@ MAX_SPEED = 60.0  # m/s (216 km/h)
 MAX_TIME_S = 3600.0  # s
 MAX_HEADING_DEG = 720.0
 MAX_SEED = 2**32 - 1  # numpy's legacy seeds and highway-env's take 32 bits
+MAX_IMAGE_PX = 4096  # the largest camera image side (px)
+#: Comfortable |acceleration| (m/s^2) per class when a script gives none (``sim.actors``).
+DEFAULT_ACCEL = {
+    "pedestrian": 2.0,
+    "animal": 4.0,
+    "cyclist": 2.0,
+    "motorcyclist": 3.0,
+    "tricycle": 1.5,
+    "car": 3.0,
+    "truck": 2.0,
+    "bus": 2.0,
+    "obstacle": 1.0,
+}
 
 Seconds = Annotated[float, Field(ge=0.0, le=MAX_TIME_S)]
 Speed = Annotated[float, Field(ge=0.0, le=MAX_SPEED)]
@@ -176,8 +190,8 @@ def mounted_camera(width: int, height: int, fov_h: float, mount: MountSpec) -> C
 
 
 class CameraSpec(Strict):
-    width: int = Field(640, ge=64, le=4096)
-    height: int = Field(360, ge=48, le=4096)
+    width: int = Field(640, ge=64, le=MAX_IMAGE_PX)
+    height: int = Field(360, ge=48, le=MAX_IMAGE_PX)
     fov_h: float = Field(90.0, gt=10.0, lt=170.0, description="horizontal field of view (deg)")
     rate: float = Field(10.0, ge=1.0, le=120.0, description="frames per second")
     mount: MountSpec = Field(default_factory=MountSpec)
@@ -501,22 +515,36 @@ class Scenario(Strict):
 
 
 def with_detector(scenario: Scenario, kind: str | None, model: str | Path | None = None) -> Scenario:
-    """``scenario`` with its detector replaced (``kind`` gt | onnx | auto; ``model`` an ONNX file).
+    """``scenario`` with its detector replaced (the CLI's ``--detector`` / ``--model``).
 
-    ``None`` for both returns ``scenario`` unchanged (the CLI's ``--detector`` / ``--model``).
+    ``kind``: gt | onnx | hog | auto, or a detector plug-in (``kind: plugin``): ``module:factory``,
+    ``file.py:factory`` or the name of an installed one (entry-point group ``lookahead.detectors``;
+    the built-in kinds win over a plug-in of the same name). The scenario's options stay when the
+    kind (and plug-in) stays, otherwise they are dropped. ``model``: an ONNX file (implies
+    ``onnx``; refused with ``hog`` or a plug-in). ``None`` for both returns ``scenario`` unchanged.
+    See ``perception.plugins.override_detector``.
     """
     if kind is None and model is None:
         return scenario
-    spec = scenario.perception.detector
-    update: dict[str, Any] = {}
-    if kind is not None:
-        if kind not in ("auto", "gt", "onnx"):
-            raise ScenarioError(f"--detector: expected gt, onnx or auto, got {kind!r}")
-        update["kind"] = kind
-    if model is not None:
-        update["model"] = str(model)
-        update.setdefault("kind", "onnx")
-    perception = scenario.perception.model_copy(update={"detector": spec.model_copy(update=update)})
+    from lookahead.perception.plugins import override_detector
+
+    try:
+        spec = override_detector(scenario.perception.detector, kind, model)
+    except SettingsError as e:
+        raise ScenarioError(str(e)) from None
+    perception = scenario.perception.model_copy(update={"detector": spec})
+    return scenario.model_copy(update={"perception": perception})
+
+
+def with_stack(scenario: Scenario, ref: str | None) -> Scenario:
+    """``scenario`` with a stack plug-in (the CLI's ``--stack``: ``module:factory``,
+    ``file.py:factory`` or an entry point of ``lookahead.stacks``) in place of its detector,
+    tracker and estimator; ``None`` returns ``scenario`` unchanged."""
+    if ref is None:
+        return scenario
+    if not ref.strip():
+        raise ScenarioError("--stack: expected module:factory or an installed stack plug-in's name")
+    perception = scenario.perception.model_copy(update={"stack": StackSpec(plugin=ref.strip())})
     return scenario.model_copy(update={"perception": perception})
 
 

@@ -42,3 +42,26 @@ def require_command(name: str) -> str:
 def vtest_avi() -> Path:
     """OpenCV's sample clip vtest.avi (768x576, 795 frames of pedestrians)."""
     return require_file(VTEST_AVI, "OpenCV's sample clip vtest.avi")
+
+
+#: Debian's Python (with the Debian packages' modules, e.g. python3-gi), not the venv's.
+SYSTEM_PYTHON = "/usr/bin/python3"
+
+
+def require_system_python(args: list[str], what: str, timeout: float = 30.0) -> str:
+    """``SYSTEM_PYTHON`` if ``SYSTEM_PYTHON *args`` exits 0 (e.g. a script's self-check that the
+    Debian packages it imports are installed), else skip (or fail under make test) naming ``what``
+    and what the check said."""
+    import subprocess
+
+    if not Path(SYSTEM_PYTHON).is_file():
+        _missing(f"{what}: no {SYSTEM_PYTHON}")
+    try:
+        done = subprocess.run([SYSTEM_PYTHON, *args], capture_output=True, text=True, timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        _missing(f"{what}: {exc}")
+    else:
+        if done.returncode != 0:
+            said = " ".join((done.stderr or done.stdout).strip().splitlines()[-1:])
+            _missing(f"{what}: {said}" if said else what)
+    return SYSTEM_PYTHON

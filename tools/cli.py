@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import json
 import logging
+import os
 import re
 import sys
 from pathlib import Path
@@ -72,6 +73,10 @@ def catalogue_path(text: str | Path) -> Path:
     return resolve_path(text)
 
 
+DETECTOR_HELP = ("override the scenario's detector: gt | onnx | hog | auto, or a plug-in: module:factory, "
+                 "file.py:factory or an installed plug-in's name (docs/plugins.md)")
+STACK_HELP = ("a perception-stack plug-in in place of detector, tracker and estimator (intent and alerts stay "
+              "lookahead's): module:factory, file.py:factory or an installed one's name (docs/plugins.md)")
 SCORE_ROWS = (  # lookahead score: (section, metric, format)
     ("detection", "precision", "{:.3f}"),
     ("detection", "recall", "{:.3f}"),
@@ -120,13 +125,14 @@ USER_ERRORS: tuple[tuple[str, str], ...] = (
     ("lookahead.perception.detectors.onnx_detector", "ModelError"),
     ("lookahead.perception.calibration", "CalibrationError"),
     ("lookahead.perception.ego_speed", "EgoSpeedError"),
+    ("lookahead.perception.plugins", "PluginError"),
     ("lookahead.perception.sources", "SourceError"),
     ("lookahead.tools.detector.arch", "ArchitectureError"),
     ("lookahead.tools.detector.data", "DatasetError"),
     ("lookahead.tools.detector.train", "ResumeError"),
     ("lookahead.tools.runs.regress", "BaselineError"),
-    ("lookahead.tools.runs.replay", "ReplayError"),
-    ("lookahead.tools.sinks.rundir", "OutputError"),
+    ("lookahead.tools.runs.inputs", "ReplayError"),
+    ("lookahead.tools.sinks.paths", "OutputError"),
     ("lookahead.tools.sinks.rundir", "RunDirError"),
     ("lookahead.tools.sinks.store", "StoreError"),
 )
@@ -293,6 +299,10 @@ def camera_option(text: str | None) -> tuple[int, int] | None:
             raise ValueError
     except ValueError:
         fail(f"--camera {text!r}: WIDTHxHEIGHT in px expected, e.g. 1280x720")
+    from lookahead.sim.scenario import MAX_IMAGE_PX
+
+    if max(size) > MAX_IMAGE_PX:
+        fail(f"--camera {text}: {'width' if size[0] > MAX_IMAGE_PX else 'height'} must be at most {MAX_IMAGE_PX} px")
     return size  # type: ignore[return-value]
 
 
@@ -306,7 +316,8 @@ def _progress() -> Progress:
 def run_scenario(
     scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
     video: Path | None = None, rerun_file: Path | None = None, lang: str = "en", rerun_live: bool = False,
-    detector: str | None = None, model: Path | None = None, aeb: str | None = None,
+    detector: str | None = None, model: Path | None = None, aeb: str | None = None, raw_video: Path | None = None,
+    stack: str | None = None,
 ) -> dict:
     """Run one scenario into ``out``; returns the run summary. ``detector`` / ``model`` / ``aeb``
     override the scenario's (``sim.scenario.with_detector``, ``with_aeb``).
@@ -314,15 +325,17 @@ def run_scenario(
     The runner (renderer, detector model) is built before any sink, so a bad model
     or renderer fails before an output file is touched.
     """
+    from lookahead.sim.scenario import load_scenario, with_aeb, with_detector, with_stack
+
+    scenario = with_stack(with_aeb(with_detector(load_scenario(scenario_path), detector, model), aeb), stack)
+    for path in (video, raw_video):  # a path that can never be written fails before the simulator loads
+        if path is not None:
+            from lookahead.tools.sinks.video import check_video_path
+
+            check_video_path(path)
     from lookahead.sim.runner import Runner
-    from lookahead.sim.scenario import load_scenario, with_aeb, with_detector
     from lookahead.tools.sinks.rundir import RunDirWriter
 
-    scenario = with_aeb(with_detector(load_scenario(scenario_path), detector, model), aeb)
-    if video is not None:  # a path that can never be written fails before the simulator loads
-        from lookahead.tools.sinks.video import check_video_path
-
-        check_video_path(video)
     runner = Runner(scenario, render=render, renderer_backend=renderer)
     try:
         sinks: list = [RunDirWriter(out, scenario, source=str(scenario_path))]
@@ -334,6 +347,10 @@ def run_scenario(
             from lookahead.tools.sinks.video import VideoSink
 
             sinks.append(VideoSink(video, fps=scenario.camera.rate, lang=lang))
+        if raw_video is not None:
+            from lookahead.tools.sinks.video import VideoSink
+
+            sinks.append(VideoSink(raw_video, fps=scenario.camera.rate, raw=True))
         if rerun_file is not None or rerun_live:
             from lookahead.tools.sinks.rerun import RerunSink
 
@@ -358,12 +375,17 @@ def run(
     db: Annotated[Path | None, typer.Option("--db", help="also write into this SQLite store (runs accumulate)")] = None,
     sqlite: Annotated[bool, typer.Option("--sqlite", help="write the store to RUN_DIR/run.sqlite")] = False,
     video: Annotated[Path | None, typer.Option("--video", help="annotated MP4 (e.g. RUN_DIR/annotated.mp4)")] = None,
+    raw_video: Annotated[Path | None, typer.Option(
+        "--raw-video", help="the camera frames as rendered, unannotated (MP4), e.g. RUN_DIR/camera.mp4: what "
+                            "`lookahead watch` reads back with RUN_DIR/camera.yaml and RUN_DIR/ego_speed.csv",
+    )] = None,
     rerun_file: Annotated[Path | None, typer.Option("--rerun", help="rerun .rrd recording (e.g. RUN_DIR/run.rrd)")] = None,
     lang: Annotated[str, typer.Option("--lang", help="video labels: en | zh")] = "en",
     rerun_live: Annotated[bool, typer.Option("--rerun-live", help="stream to a live rerun viewer (spawned)")] = False,
-    detector: Annotated[str | None, typer.Option(help="override the scenario's detector: gt | onnx | auto")] = None,
+    detector: Annotated[str | None, typer.Option(help=DETECTOR_HELP)] = None,
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
     aeb: Annotated[str | None, aeb_param()] = None,
+    stack: Annotated[str | None, typer.Option(help=STACK_HELP)] = None,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
@@ -372,12 +394,24 @@ def run(
         raise typer.BadParameter("--lang must be en or zh")
     summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
                            rerun_file=rerun_file, lang=lang, rerun_live=rerun_live, detector=detector, model=model,
-                           aeb=aeb)
+                           aeb=aeb, raw_video=raw_video, stack=stack)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
         f"{len(hits)} collision(s) -> {out}", highlight=False,
     )
+
+
+def _watch_status(status) -> str:
+    """The live status line of ``lookahead watch`` (a ``tools.runs.watch.WatchStatus``)."""
+    frames = f"{status.frames}/{status.total}" if status.total else f"{status.frames}"
+    parts = [f"{frames} frames", f"{number(status.fps, '{:.1f}')} fps", f"latency {status.latency_ms:.0f} ms",
+             f"{status.dropped} dropped", f"{status.alerts} alerts"]
+    if status.gaps:
+        parts.append(f"{status.gaps} gaps/{status.reconnects} reconnects")
+    if status.config_reloads or status.config_rejected:
+        parts.append(f"{status.config_reloads} reloads/{status.config_rejected} rejected")
+    return ", ".join(parts)
 
 
 @app.command()
@@ -393,28 +427,78 @@ def watch(
                                        "without --calibration")] = 90.0,
     ego_speed: Annotated[str | None, typer.Option(
         "--ego-speed", help="ego speed: a number (m/s), a CSV (t,speed) / JSON log, or none (default: none; "
-                            "then ego-motion-dependent estimates and alerts are not meaningful)",
+                            "then ground speeds and behaviours are unavailable and risk comes from relative motion)",
     )] = None,
-    model: Annotated[Path | None, typer.Option(help="YOLO-layout ONNX detector (default: the shipped model)")] = None,
+    model: Annotated[Path | None, typer.Option(help="ONNX detector: YOLOv5/v8/X or end-to-end layout (default: the "
+                                                    "shipped model)")] = None,
+    detector: Annotated[str | None, typer.Option(
+        help="onnx (default) | hog (OpenCV's people detector) | a plug-in: module:factory, file.py:factory or an "
+             "installed plug-in's name (docs/plugins.md)")] = None,
+    stack: Annotated[str | None, typer.Option(help=STACK_HELP)] = None,
+    config: Annotated[Path | None, typer.Option(
+        "--config", help="live configuration YAML (intent.live_config): detector conf / iou, intent overrides "
+                         "(risk zones, distance and TTC thresholds), alerts; re-read when it changes, an edit "
+                         "applies from the next frame, an invalid one is warned about and ignored",
+    )] = None,
     video: Annotated[Path | None, typer.Option("--video", help="annotated MP4 (e.g. RUN_DIR/annotated.mp4)")] = None,
     db: Annotated[Path | None, typer.Option("--db", help="also write into this SQLite store (runs accumulate)")] = None,
     max_frames: Annotated[int | None, typer.Option("--max-frames", min=1, help="stop after this many frames")] = None,
+    reconnect_attempts: Annotated[int, typer.Option(
+        "--reconnect-attempts", min=0, help="a live stream that drops: reopen attempts before the run ends")] = 10,
+    reconnect_max_wait: Annotated[float, typer.Option(
+        "--reconnect-max-wait", min=0.0, max=3600.0,
+        help="longest wait between reopen attempts (s); the waits double from 0.5 s")] = 8.0,
+    rerun_file: Annotated[Path | None, typer.Option("--rerun", help="rerun .rrd recording (e.g. RUN_DIR/run.rrd)")] = None,
+    rerun_live: Annotated[bool, typer.Option("--rerun-live", help="stream to a live rerun viewer (spawned)")] = False,
+    report: Annotated[bool, typer.Option("--report/--no-report", help="write RUN_DIR/report.html at the end")] = True,
 ) -> None:
-    """Run the perception stack on real video (file, folder, camera, stream); Ctrl-C ends it cleanly."""
+    """Run the perception stack on real video (file, folder, camera, stream); Ctrl-C or SIGTERM ends it
+    cleanly. A live status line shows frames, rate, latency, dropped frames, alerts and reconnects."""
+    from rich.progress import SpinnerColumn
+
+    from lookahead.perception.sources import ReconnectPolicy
     from lookahead.tools.runs.watch import watch as watch_source
 
     if fov != 90.0 and calibration is not None:
         raise typer.BadParameter("--fov applies only without --calibration")
-    s = watch_source(source, out, calibration=calibration, ego_speed=ego_speed, model=model, video=video, db=db,
-                     max_frames=max_frames, fov=fov)
+    import cv2
+
+    if "OPENCV_LOG_LEVEL" not in os.environ:  # OpenCV's own warning on every failed reopen of a dropped stream
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+    logging.getLogger("lookahead.tools.runs.watch.config").setLevel(logging.INFO)  # one line per reload
+    with Progress(SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn(), console=console,
+                  transient=True, disable=not sys.stderr.isatty()) as prog:
+        # log lines (reloads, rejected edits, reconnects) through rich's stderr, above the status line
+        handlers = [h for h in logging.getLogger().handlers if type(h) is logging.StreamHandler]
+        streams = [h.setStream(sys.stderr) for h in handlers]
+        task = prog.add_task("starting", total=None)
+        try:
+            s = watch_source(source, out, calibration=calibration, ego_speed=ego_speed, model=model, video=video,
+                             db=db, max_frames=max_frames, fov=fov, config=config,
+                             reconnect=ReconnectPolicy(initial_s=min(0.5, reconnect_max_wait), max_s=reconnect_max_wait,
+                                                       max_attempts=reconnect_attempts),
+                             rerun_file=rerun_file, rerun_live=rerun_live, detector=detector, stack=stack,
+                             progress=lambda st: prog.update(task, description=_watch_status(st)))
+        finally:
+            for h, old in zip(handlers, streams, strict=True):
+                if old is not None:
+                    h.setStream(old)
+    lat = s["latency_ms"]
+    reloads = (f", {len(s['config_reloads'])} config reload(s), {s['config_rejected']} rejected"
+               if config is not None else "")
     console.print(
         f"{s['source']}: {s['frames']} frames at {number(s['fps'], '{:.1f}')} fps, {s['dropped']} dropped, "
-        f"{len(s['gaps'])} gap(s), {s['alerts']} alert(s){' (interrupted)' if s['interrupted'] else ''} -> {out}",
+        f"{len(s['gaps'])} gap(s), {s['alerts']} alert(s), latency p50 {number(lat['p50'], '{:.0f}')} / "
+        f"p95 {number(lat['p95'], '{:.0f}')} ms{reloads}{' (interrupted)' if s['interrupted'] else ''} -> {out}",
         highlight=False, soft_wrap=True,
     )
     if s["frames_without_ego_speed"]:
-        console.print(f"note: {s['frames_without_ego_speed']} frame(s) without ego speed: ego-motion-dependent "
-                      "estimates and alerts are not meaningful there", highlight=False, soft_wrap=True)
+        console.print(f"note: {s['frames_without_ego_speed']} frame(s) without ego speed: ground speeds and "
+                      "behaviours unavailable there, risk from relative motion", highlight=False, soft_wrap=True)
+    if report:
+        from lookahead.tools.reports.report import build_report
+
+        console.print(f"report: {build_report(out)}", highlight=False, soft_wrap=True)
 
 
 @app.command()
@@ -425,14 +509,16 @@ def suite(
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
     db: Annotated[Path | None, typer.Option("--db", help="one SQLite store for every run of the suite")] = None,
-    detector: Annotated[str | None, typer.Option(help="override every scenario's detector: gt | onnx | auto")] = None,
+    detector: Annotated[str | None, typer.Option(help=DETECTOR_HELP)] = None,
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
     aeb: Annotated[str | None, aeb_param()] = None,
 ) -> None:
     """Run and score every scenario of a suite; writes summary.json."""
-    from lookahead.tools.runs.suite import load_suite, run_suite
+    from lookahead.tools.runs.inputs import load_suite
 
-    _, paths = load_suite(suite_file)
+    _, paths = load_suite(suite_file)  # checked before the simulator loads
+    from lookahead.tools.runs.suite import run_suite
+
     with _progress() as prog:
         task = prog.add_task(suite_file.stem, total=len(paths))
         summary = run_suite(suite_file, out, workers=workers, render=render, db=db,
@@ -450,7 +536,7 @@ def regress(
     out: Annotated[Path | None, typer.Option("--out", help="keep the suite directory here")] = None,
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 2,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = False,
-    detector: Annotated[str | None, typer.Option(help="override every scenario's detector: gt | onnx | auto")] = None,
+    detector: Annotated[str | None, typer.Option(help=DETECTOR_HELP)] = None,
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
     aeb: Annotated[str | None, aeb_param()] = None,
 ) -> None:
@@ -619,9 +705,11 @@ def sweep(
     Finished variants are skipped on a re-run; a failing variant is recorded in
     summary.json and the others go on (exit 1 at the end if any failed).
     """
-    from lookahead.tools.runs.sweep import load_sweep, run_sweep, todo_variants
+    from lookahead.tools.runs.sweep_spec import load_sweep
 
-    _, _, variants = load_sweep(sweep_file, aeb=aeb)
+    _, _, variants = load_sweep(sweep_file, aeb=aeb)  # checked before the simulator loads
+    from lookahead.tools.runs.sweep import run_sweep, todo_variants
+
     todo = todo_variants(out, variants, db)
     if dry_run:
         for v in variants:
@@ -649,8 +737,7 @@ def sweep(
 @user_errors
 def ncap(
     out: Annotated[Path, typer.Option("--out", help="scorecard directory (re-run to resume)")] = Path("out/ncap"),
-    detector: Annotated[str | None, typer.Option("--detector", metavar="gt|onnx",
-                                                 help="override every scenario's detector")] = None,
+    detector: Annotated[str | None, typer.Option("--detector", help=DETECTOR_HELP)] = None,
     render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames (onnx needs it)")] = False,
     workers: Annotated[int, typer.Option(min=1, help="worker processes")] = 1,
     only: Annotated[str | None, typer.Option("--only", help="test codes or case ids, comma-separated "
@@ -665,10 +752,13 @@ def ncap(
     """
     from lookahead.tools.runs.ncap import parse_speeds, run_ncap
 
-    if detector is not None and detector not in ("gt", "onnx", "auto"):
-        fail(f"--detector {detector!r}: expected gt, onnx or auto")
-    if detector == "onnx" and not render:
-        fail("--detector onnx needs --render (the model runs on rendered frames)")
+    if detector is not None:
+        from lookahead.perception.config import DetectorSpec
+        from lookahead.perception.plugins import override_detector
+
+        override_detector(DetectorSpec(), detector)  # SettingsError: one line, the installed plug-ins
+    if detector in ("onnx", "hog") and not render:
+        fail(f"--detector {detector} needs --render (it runs on rendered frames)")
     aeb = aeb.strip().lower()
     if aeb not in ("on", "off", "both"):
         fail(f"--aeb {aeb!r}: expected on, off or both")
@@ -716,17 +806,28 @@ def bench_sim(
 
 
 @app.command()
-def score(run_dir: Annotated[Path, typer.Argument(help="run directory")]) -> None:
-    """Score a run directory into its metrics.json (detection, tracking, estimation)."""
+def score(
+    run_dir: Annotated[Path, typer.Argument(help="run directory")],
+    truth: Annotated[Path | None, typer.Option(
+        help="for a `lookahead watch` run on a simulated run's raw video (run --raw-video): that run's "
+             "directory, whose ground truth is scored against, frame by frame",
+    )] = None,
+) -> None:
+    """Score a run directory into its metrics.json (detection, tracking, estimation, intent)."""
     from lookahead.tools.scoring.run import score_run
 
     try:
-        metrics = score_run(run_dir)
+        metrics = score_run(run_dir, truth=truth)
     except (OSError, ValueError) as exc:  # RunDirError is a ValueError
         fail(describe(exc))
     summary = Table(title=f"{run_dir}/metrics.json")
     for col, justify in (("section", "left"), ("metric", "left"), ("value", "right")):
         summary.add_column(col, justify=justify)
+    if "detection" not in metrics:  # a run without ground truth: what the stack produced
+        for key, value in metrics.get("observed", {}).items():
+            summary.add_row("observed", key, json.dumps(value) if isinstance(value, dict) else number(value, "{}"))
+        Console().print(summary)
+        return
     for section, key, spec in SCORE_ROWS:
         summary.add_row(section, key, number(metrics.get(section, {}).get(key), spec))
     per_class = Table(title="detection per class")
@@ -755,11 +856,14 @@ def replay(
     seed: Annotated[int, typer.Option(min=0, help="perturb: random stream")] = 0,
 ) -> None:
     """Re-run tracker, estimator, intent and alerts on a run's recorded detections; write and score a new run."""
+    from lookahead.tools.runs.inputs import read_overrides
+
+    overrides = None if config is None else read_overrides(config)  # checked before the simulator loads
     from lookahead.tools.runs.replay import Perturbation, replay_command
 
     perturb = Perturbation(jitter=jitter, bottom_sigma=bottom_noise, correlation=correlation, scale_bias=scale_bias,
                            miss_rate=miss_rate, class_flip=class_flip, seed=seed)
-    result = replay_command(source, out, perturb, config)
+    result = replay_command(source, out, perturb, config, overrides)
     if "totals" in result:
         print_suite(result)
     else:
@@ -833,11 +937,11 @@ def export_dataset(
     A generator file (``generator:`` section, see scenarios/generators/) exports one
     dataset per split (disjoint seed ranges) into OUT/<split>.
     """
+    size = camera_option(camera)  # checked before the simulator loads
     from lookahead.sim.scenario import ScenarioError
     from lookahead.tools.dataset.export import export_source
-    from lookahead.tools.sinks.rundir import OutputError
+    from lookahead.tools.sinks.paths import OutputError
 
-    size = camera_option(camera)
     try:
         result = export_source(source, format, every, out, render, split, weather, workers, seeds=seeds, camera=size)
     except (ScenarioError, OutputError, OSError, ValueError) as exc:
@@ -1113,6 +1217,20 @@ def bench_sinks(
 ) -> None:
     """Tick time with every sink (run dir, SQLite, video, rerun) vs none, rendering on."""
     from lookahead.tools.bench.sinks import bench_sinks as run_bench
+
+    result = run_bench(scenario, repeats=repeats)
+    save_bench(result, out)
+
+
+@bench_app.command("watch")
+@user_errors
+def bench_watch(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    scenario: Annotated[Path, typer.Option(help="scenario rendered to the clip", parser=catalogue_path)] = Path("ped_crossing_nearside"),
+    repeats: Annotated[int, typer.Option(min=1, help="rounds (each stage alone, then the pipeline)")] = 3,
+) -> None:
+    """`lookahead watch` on a rendered clip vs its slowest stage alone (capture, stack, sinks); latency."""
+    from lookahead.tools.bench.watch import bench_watch as run_bench
 
     result = run_bench(scenario, repeats=repeats)
     save_bench(result, out)

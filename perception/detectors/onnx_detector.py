@@ -1,13 +1,46 @@
 """``OnnxDetector``: run any YOLO-family ONNX detector with onnxruntime.
 
-Output layouts (detected from the output shape and the number of class names):
+Output layouts (``layout=`` argument, else the model's metadata, else the output shape and the
+number of class names; see "Choosing the layout" below):
 
-- YOLOv5-style ``[1, N, 5+C]``: cx, cy, w, h, objectness, C class scores;
-  score = objectness * best class score.
-- YOLOv8/11-style ``[1, 4+C, N]``: cx, cy, w, h, C class scores; score = best class score.
+- ``yolov5`` ``[1, N, 5+C]``: cx, cy, w, h, objectness, C class scores;
+  score = objectness * best class score. YOLOv7 and YOLOX exported with decoding in the graph
+  (``decode_in_inference=True``) read the same way.
+- ``yolov8`` ``[1, 4+C, N]`` (YOLOv8/9/11/12): cx, cy, w, h, C class scores; score = best class score.
+- ``yolox`` ``[1, N, 5+C]``, raw (YOLOX's ``tools/export_onnx.py`` without ``--decode_in_inference``,
+  its default): one row per grid cell of the strides 8, 16, 32 (p6 models: and 64), cell by cell
+  in row-major order, stride by stride, so N = sum over strides of (H/s)*(W/s) for an H x W input;
+  x, y are offsets in cells and w, h logs of cells, decoded as YOLOX's ``demo_postprocess`` does:
+  cx, cy = (offset + cell) * s, w, h = exp(log) * s; objectness and class scores are already
+  sigmoids; score = objectness * best class score.
+- ``end2end`` ``[1, N, 6]`` (NMS-free: YOLOv10, Ultralytics ``end2end`` / ``nms=True`` exports,
+  TensorRT-style exports): rows x1, y1, x2, y2, score, class id, already deduplicated, so no NMS
+  (the score threshold and ``max_det`` still apply; a class id outside the model's classes is
+  dropped).
+
+Choosing the layout (``layout="auto"``, the default):
+
+1. The model's metadata, when it names one: a ``layout`` or ``model_type`` value beginning with
+   ``yolov5``/``v5``/``yolov7`` (yolov5), ``yolov8``/``v8``/``yolov9``/``yolo11``/``yolo12``
+   (yolov8), ``yolox`` (yolox; yolov5 when a ``decode_in_inference`` value is true), or
+   ``end2end``/``e2e``/``nms_free``/``yolov10`` (end2end); else Ultralytics' ``end2end: True`` or
+   ``args`` holding ``nms: True`` (end2end); else a producer name containing ``yolox`` (yolox).
+   A named layout the output does not fit is ignored (logged) and the shape decides; so a model
+   named yolox is read raw only when N is its grid count for the input size.
+2. The shape: ``[1, N, 6]`` with a number of class names other than 1 is end2end; ``[1, N, 5+C]``
+   is yolov5; ``[1, 4+C, N]`` is yolov8 (both fitting: the shorter axis holds the features).
+   ``[1, N, 6]`` with one class name or none is read as yolov5 with one class (logged): pass
+   ``layout="end2end"`` (or names) for an NMS-free model. A raw YOLOX output has the shape of a
+   yolov5 one, so it is never guessed from the shape: it needs metadata or ``layout="yolox"``.
+
+An explicit ``layout=`` the output does not fit is a ``ModelError``, as is an output no layout
+fits; both one line naming the shape found and the layouts expected. YOLOX's reference
+preprocessing (BGR, 0..255, padded at the bottom right) differs from the one here (RGB, 0..1,
+centred letterbox): the decoding does not depend on it, but a model trained on YOLOX's input
+needs its input converted, which is not done here.
 
 Boxes are in letterboxed input pixels; they are mapped back to the original
-image, clipped, and filtered with per-class NMS. With zoom ``windows``
+image, clipped, and (except end2end) filtered with per-class NMS. With zoom ``windows``
 (``perception.detectors.windows``) the model also runs on each window's crop,
 magnified into its input; small objects whole inside a window are taken from the
 window, the rest from the whole frame. Class names come from the
@@ -90,7 +123,32 @@ MIN_INPUT_SIDE, MAX_INPUT_SIDE = INPUT_MULTIPLE, 4096
 #: before it is parsed.
 MAX_METADATA_CHARS = 1 << 16
 
-_V5, _V8 = "v5", "v8"
+_V5, _V8, _YOLOX, _E2E = "v5", "v8", "yolox", "end2end"
+
+#: ``layout=`` values (``DetectorSpec.layout``) -> the ``layout`` attribute they set; auto: None.
+LAYOUTS: dict[str, str | None] = {"auto": None, "yolov5": _V5, "yolov8": _V8, "yolox": _YOLOX, "end2end": _E2E}
+
+#: The strides of YOLOX's output grids, tried in turn: the usual three, then p6 models' four.
+YOLOX_STRIDES = ((8, 16, 32), (8, 16, 32, 64))
+
+#: Metadata keys that may name the layout or model family, and the values' prefixes (lower-case,
+#: without ``-``, ``_`` or spaces) naming a layout; longest prefix first.
+LAYOUT_KEYS = ("layout", "model_type")
+_FAMILY_PREFIXES = sorted(
+    {
+        "yolov5": _V5, "v5": _V5, "yolov7": _V5,
+        "yolov8": _V8, "v8": _V8, "yolov9": _V8, "yolo11": _V8, "yolov11": _V8, "yolo12": _V8, "yolov12": _V8,
+        "yolox": _YOLOX,
+        "end2end": _E2E, "e2e": _E2E, "nmsfree": _E2E, "yolov10": _E2E,
+    }.items(),
+    key=lambda kv: -len(kv[0]),
+)
+
+#: Largest raw YOLOX log-width/height decoded (e^20 cells is far beyond any image; avoids inf).
+_YOLOX_MAX_LOG_WH = 20.0
+
+#: Raw YOLOX grids cached per (input size, N); a dynamic input varies with the frame and windows.
+_GRID_CACHE_SIZE = 8
 
 
 class ModelError(ValueError):
@@ -165,6 +223,42 @@ def _static(dim: Any) -> int | None:
     return int(dim) if isinstance(dim, int | np.integer) and dim > 0 else None
 
 
+def _truthy(value: str | None) -> bool:
+    return value is not None and value.strip().lower() in ("true", "1", "yes")
+
+
+def _family_layout(value: str) -> str | None:
+    """The layout a metadata value names (``"YOLOX-s"`` -> yolox), or None."""
+    key = "".join(value.lower().split()).replace("-", "").replace("_", "")
+    return next((layout for prefix, layout in _FAMILY_PREFIXES if key.startswith(prefix)), None)
+
+
+def yolox_strides(input_hw: tuple[int, int], n: int | None) -> tuple[int, ...] | None:
+    """The strides (``YOLOX_STRIDES``) whose grids over an ``input_hw`` input have ``n`` cells in
+    all, as YOLOX's ``demo_postprocess`` counts them (``H // s`` x ``W // s`` per stride); None
+    when none do."""
+    h, w = input_hw
+    for strides in YOLOX_STRIDES:
+        if n == sum((h // s) * (w // s) for s in strides):
+            return strides
+    return None
+
+
+def yolox_grid(input_hw: tuple[int, int], strides: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's cell (N, 2: x, y) and stride (N, 1) of a raw YOLOX output, float32: stride by
+    stride, cells row-major (x fastest), as YOLOX's ``demo_postprocess`` lays them out."""
+    h, w = input_hw
+    cells, sizes = [], []
+    for s in strides:
+        yv, xv = np.mgrid[: h // s, : w // s]
+        cells.append(np.stack([xv.ravel(), yv.ravel()], axis=1))
+        sizes.append(np.full(xv.size, s))
+    return (
+        np.concatenate(cells).astype(np.float32),
+        np.concatenate(sizes).astype(np.float32)[:, None],
+    )
+
+
 class OnnxDetector:
     """YOLO-family ONNX detector (onnxruntime); see the module docstring for layouts and names.
 
@@ -181,13 +275,18 @@ class OnnxDetector:
         providers: onnxruntime providers; default TensorRT/CUDA when available, else CPU.
         windows: zoom windows (x0, y0, x1, y1 as fractions of the image, optionally a zoom) run as
             well, magnified (``perception.detectors.windows``); empty: the whole frame only.
+        layout: the output layout (``LAYOUTS``): ``"auto"`` (metadata, else shape; see the module
+            docstring), ``"yolov5"``, ``"yolov8"``, ``"yolox"`` (raw, undecoded) or ``"end2end"``.
 
     Attributes:
         session: the ``onnxruntime.InferenceSession`` (time ``session.run`` alone via ``infer``).
         names: model class names (None when unknown).
         class_map: (C,) model class index -> our class id (-1 unknown), or None for raw indices.
-        layout: ``"v5"`` or ``"v8"`` once known (static output shape: at load).
-        dropped_unknown: detections dropped so far for an unknown class name.
+        layout: ``"v5"``, ``"v8"``, ``"yolox"`` or ``"end2end"`` once known (static output
+            shape: at load).
+        num_classes: C (None when unknown: an end2end model without names).
+        dropped_unknown: detections dropped so far for an unknown class name (or, end2end, a
+            class id outside the model's classes).
         last_timing_ms: preprocess / infer / postprocess times of the last ``detect``, summed
             over its views (the whole frame and each window), and ``views``, their number.
     """
@@ -202,6 +301,7 @@ class OnnxDetector:
         names: Sequence[str] | Mapping[int, str] | str | Path | None = None,
         providers: Sequence[str] | None = None,
         windows: Sequence[Sequence[float]] = (),
+        layout: str = "auto",
     ) -> None:
         import onnxruntime as ort  # heavy; imported only when a model is loaded
 
@@ -213,6 +313,9 @@ class OnnxDetector:
         self.max_det = int(max_det)
         self.dropped_unknown = 0
         self.last_timing_ms: dict[str, float] = {}
+        self._grids: dict[tuple[tuple[int, int], int], tuple[np.ndarray, np.ndarray]] = {}
+        if layout not in LAYOUTS:
+            raise ModelError(f"{self._label}: layout {layout!r} is not one of {', '.join(LAYOUTS)}")
         try:
             self.windows = check_windows(windows)
         except ValueError as e:
@@ -240,9 +343,14 @@ class OnnxDetector:
         self.class_map = self._build_class_map(self.names)
         self.layout: str | None = None
         self.num_classes: int | None = len(self.names) if self.names is not None else None
+        # (layout, where it was named, whether binding): the argument binds, metadata only hints
+        wanted = LAYOUTS[layout]
+        self._layout_hint = (wanted, f"layout={layout!r}", True) if wanted else self._metadata_layout()
         shape = tuple(out.shape)
         if len(shape) != 3 or any(_static(d) is not None for d in shape[1:]):
-            self._resolve_layout(shape)  # else: fully dynamic, resolved on the first output
+            # else: fully dynamic, resolved on the first output; a dynamic input's size (hence a
+            # raw YOLOX grid) is known only then too
+            self._resolve_layout(shape, None if self.dynamic_input else self.input_hw)
 
     # ------------------------------------------------------------------ setup
 
@@ -344,39 +452,137 @@ class OnnxDetector:
             )
         return ids
 
-    def _resolve_layout(self, shape: tuple[Any, ...]) -> None:
-        """Set ``layout`` and ``num_classes`` from an output shape, or raise ``ModelError``."""
+    def _metadata_layout(self) -> tuple[str, str, bool] | None:
+        """The layout the model's metadata names (module docstring, rule 1), where, and False
+        (a hint, not binding); None when it names none."""
+        for key in LAYOUT_KEYS:
+            value = self._metadata(key)
+            if not value:
+                continue
+            layout = _family_layout(value)
+            if layout is None:
+                log.info("%s: metadata %s=%r names no layout we know", self._label, key, value[:80])
+                continue
+            if layout == _YOLOX and _truthy(self._metadata("decode_in_inference")):
+                layout = _V5  # decoded in the graph: cx, cy, w, h in input pixels
+            return layout, f"metadata {key}={value[:80]!r}", False
+        if _truthy(self._metadata("end2end")):
+            return _E2E, "metadata end2end=True", False
+        args = self._metadata("args")
+        if args:
+            try:
+                parsed = ast.literal_eval(args)
+            except (ValueError, SyntaxError, TypeError, MemoryError, RecursionError):
+                parsed = None
+            if isinstance(parsed, Mapping) and parsed.get("nms") is True:
+                return _E2E, "metadata args nms=True", False
+        producer = self.session.get_modelmeta().producer_name or ""
+        if "yolox" in producer.lower():
+            return _YOLOX, f"producer {producer[:80]!r}", False
+        return None
+
+    @staticmethod
+    def _shape_fits(
+        layout: str, a: int | None, b: int | None, nc: int | None, input_hw: tuple[int, int] | None
+    ) -> bool:
+        """Whether a ``[1, a, b]`` output (None: dynamic) fits ``layout`` with ``nc`` classes
+        (None: unknown); a raw YOLOX N is checked only when it and the input size are known."""
+        if layout == _V8:
+            return a is not None and (a == nc + 4 if nc is not None else a >= 5)
+        if layout == _E2E:
+            return b == 6
+        v5 = b is not None and (b == nc + 5 if nc is not None else b >= 6)
+        if layout == _YOLOX and v5 and a is not None and input_hw is not None:
+            return yolox_strides(input_hw, a) is not None
+        return v5
+
+    def _expected(self, layout: str, input_hw: tuple[int, int] | None) -> str:
+        if layout == _YOLOX and input_hw is not None:
+            h, w = input_hw
+            counts = " or ".join(
+                f"{sum((h // s) * (w // s) for s in st)} (strides {', '.join(map(str, st))})"
+                for st in YOLOX_STRIDES
+            )
+            return f"[1, N, 5+C] with N = {counts} grid cells for a {h}x{w} input"
+        return {_V8: "[1, 4+C, N]", _E2E: "[1, N, 6]"}.get(layout, "[1, N, 5+C]")
+
+    def _resolve_layout(self, shape: tuple[Any, ...], input_hw: tuple[int, int] | None = None) -> None:
+        """Set ``layout`` and ``num_classes`` from an output shape (and, for a raw YOLOX grid, the
+        input size: None when not known yet), or raise ``ModelError``."""
         nc = len(self.names) if self.names is not None else None
         dims = [_static(d) for d in shape]
+        s, with_c = _fmt_shape(shape), f" with C={nc} class names" if nc is not None else ""
+        ok = len(shape) == 3 and dims[0] in (1, None)
+        a, b = (dims[1], dims[2]) if ok else (None, None)
         layout: str | None = None
-        if len(shape) == 3 and dims[0] in (1, None):
-            a, b = dims[1], dims[2]
-            v5 = b is not None and (b == nc + 5 if nc is not None else b >= 6)
-            v8 = a is not None and (a == nc + 4 if nc is not None else a >= 5)
-            if v5 and v8 and nc is None:  # the feature axis is the short one
-                v5, v8 = b < a, a < b
-            if v5 and v8:
-                log.warning(
-                    "%s: output %s fits both layouts; assuming [1, 4+C, N]", self._label, shape
+        if self._layout_hint is not None:
+            wanted, where, binding = self._layout_hint
+            if ok and self._shape_fits(wanted, a, b, nc, input_hw):
+                layout = wanted
+            elif binding:
+                raise ModelError(
+                    f"{self._label}: output shape {s} does not fit {where}: expected "
+                    f"{self._expected(wanted, input_hw)}{with_c}"
                 )
-                v5 = False
-            layout = _V5 if v5 else _V8 if v8 else None
-            if layout is not None and nc is None:
-                nc = b - 5 if layout == _V5 else a - 4
+            else:
+                log.warning(
+                    "%s: output shape %s does not fit %s (%s); choosing the layout by the shape",
+                    self._label, s, where, self._expected(wanted, input_hw),
+                )
+        if layout is None and ok:
+            v5 = self._shape_fits(_V5, a, b, nc, input_hw)
+            v8 = self._shape_fits(_V8, a, b, nc, input_hw)
+            e2e = b == 6 and nc is not None and nc != 1  # (then 5+C != 6: not v5)
+            rows = v5 or e2e  # the [1, N, features] layouts
+            if rows and v8 and nc is None:  # the feature axis is the short one
+                rows, v8 = b < a, a < b
+            if rows and v8:
+                log.warning(
+                    "%s: output %s fits both [1, N, features] and [1, 4+C, N]; assuming [1, 4+C, N]",
+                    self._label, s,
+                )
+                rows = False
+            layout = (_E2E if e2e else _V5) if rows else _V8 if v8 else None
+            if layout == _V5 and b == 6:
+                log.warning(
+                    "%s: output %s read as [1, N, 5+C] with one class; pass layout='end2end' if its "
+                    "rows are x1, y1, x2, y2, score, class id",
+                    self._label, s,
+                )
         if layout is None:
-            with_c = f" with C={nc} class names" if nc is not None else ""
             raise ModelError(
-                f"{self._label}: output shape {_fmt_shape(shape)} is neither [1, N, 5+C] "
-                f"nor [1, 4+C, N]{with_c}"
+                f"{self._label}: output shape {s} is neither [1, N, 5+C] nor [1, 4+C, N] nor "
+                f"[1, N, 6]{with_c} (layouts yolov5 or yolox, yolov8, end2end)"
             )
+        if nc is None and layout != _E2E:
+            nc = a - 4 if layout == _V8 else b - 5
         self.layout, self.num_classes = layout, nc
 
-    def _fits(self, shape: tuple[int, ...]) -> bool:
-        if len(shape) != 3 or shape[0] != 1 or self.num_classes is None:
+    def _fits(self, shape: tuple[int, ...], input_hw: tuple[int, int]) -> bool:
+        """Whether a run-time output shape fits the layout already chosen."""
+        if self.layout is None or len(shape) != 3 or shape[0] != 1:
+            return False
+        if self.layout == _E2E:
+            return shape[2] == 6
+        if self.num_classes is None:
             return False
         if self.layout == _V8:
             return shape[1] == self.num_classes + 4
-        return shape[2] == self.num_classes + 5
+        if shape[2] != self.num_classes + 5:
+            return False
+        return self.layout == _V5 or yolox_strides(input_hw, shape[1]) is not None
+
+    def _yolox_grid(self, input_hw: tuple[int, int], n: int) -> tuple[np.ndarray, np.ndarray]:
+        """``yolox_grid`` for this input size and N (which ``_fits`` checked), cached."""
+        key = (input_hw, n)
+        grid = self._grids.get(key)
+        if grid is None:
+            strides = yolox_strides(input_hw, n)
+            assert strides is not None  # checked by _fits / _resolve_layout
+            if len(self._grids) >= _GRID_CACHE_SIZE:
+                self._grids.clear()
+            grid = self._grids[key] = yolox_grid(input_hw, strides)
+        return grid
 
     # ------------------------------------------------------------- pipeline
 
@@ -412,10 +618,15 @@ class OnnxDetector:
         scale: float,
         pad: tuple[float, float],
         image_hw: tuple[int, int],
+        input_hw: tuple[int, int] | None = None,
     ) -> Detections:
-        """Decode a raw output into ``Detections`` in original image pixels (vectorised + NMS)."""
-        if self.layout is None or not self._fits(raw.shape):
-            self._resolve_layout(tuple(raw.shape))  # raises when the run-time shape fits no layout
+        """Decode a raw output into ``Detections`` in original image pixels (vectorised + NMS).
+
+        ``input_hw``: the size (px) of the input tensor ``raw`` came from, which places a raw
+        YOLOX output's grid; default the model's input size (a fixed input's)."""
+        hw = self.input_hw if input_hw is None else (int(input_hw[0]), int(input_hw[1]))
+        if not self._fits(raw.shape, hw):
+            self._resolve_layout(tuple(raw.shape), hw)  # raises when the run-time shape fits no layout
         pred = np.asarray(raw[0], dtype=np.float32)
         if self.layout == _V8:
             # [4+C, N] as it comes: best score per column over contiguous rows, then the
@@ -425,13 +636,35 @@ class OnnxDetector:
             kept = cls_scores[:, keep]
             cls = kept.argmax(axis=0)
             score = kept[cls, np.arange(len(keep))]
-            boxes = pred[:4, keep].T
+            xyxy = _xyxy(pred[:4, keep].T)
+        elif self.layout == _E2E:
+            # x1, y1, x2, y2, score, class id: already one box per object
+            keep = np.flatnonzero(pred[:, 4] > self.conf_threshold)
+            score, cls_f = pred[keep, 4], pred[keep, 5]
+            top = self.num_classes if self.num_classes is not None else np.iinfo(np.int32).max
+            valid = (cls_f > -0.5) & (cls_f < top - 0.5)  # NaN: False
+            n_invalid = int(np.count_nonzero(~valid))
+            if n_invalid:
+                self.dropped_unknown += n_invalid
+                log.debug("%s: dropped %d detections of class ids out of range", self._label, n_invalid)
+            keep, score = keep[valid], score[valid]
+            cls = np.rint(cls_f[valid]).astype(np.int64)
+            xyxy = pred[keep, :4].astype(np.float64)
         else:
             cls_scores = pred[:, 5:] * pred[:, 4:5]
             cls = cls_scores.argmax(axis=1)
             score = np.take_along_axis(cls_scores, cls[:, None], axis=1)[:, 0]
-            keep = score > self.conf_threshold
-            boxes, score, cls = pred[keep, :4], score[keep], cls[keep]
+            keep = np.flatnonzero(score > self.conf_threshold)
+            score, cls, boxes = score[keep], cls[keep], pred[keep, :4]
+            if self.layout == _YOLOX:  # decode only the rows kept: offsets and logs in cells
+                cells, stride = self._yolox_grid(hw, pred.shape[0])
+                cells, stride = cells[keep], stride[keep]
+                boxes = np.concatenate(
+                    [(boxes[:, :2] + cells) * stride,
+                     np.exp(np.minimum(boxes[:, 2:4], _YOLOX_MAX_LOG_WH)) * stride],
+                    axis=1,
+                )
+            xyxy = _xyxy(boxes)
         if self.class_map is not None:
             cls = self.class_map[cls]
             known = cls >= 0
@@ -439,13 +672,14 @@ class OnnxDetector:
             if n_unknown:
                 self.dropped_unknown += n_unknown
                 log.debug("%s: dropped %d detections of unmapped classes", self._label, n_unknown)
-                boxes, score, cls = boxes[known], score[known], cls[known]
-        if len(score) > MAX_NMS_CANDIDATES:
-            top = np.argsort(-score, kind="stable")[:MAX_NMS_CANDIDATES]
-            boxes, score, cls = boxes[top], score[top], cls[top]
-        xy, half = boxes[:, :2].astype(np.float64), boxes[:, 2:4].astype(np.float64) / 2.0
-        xyxy = np.concatenate([xy - half, xy + half], axis=1)
-        idx = nms(xyxy, score, cls, self.iou_threshold, self.max_det, CONTAINMENT)
+                xyxy, score, cls = xyxy[known], score[known], cls[known]
+        if self.layout == _E2E:  # NMS-free: the best max_det, highest score first
+            idx = np.argsort(-score, kind="stable")[: self.max_det]
+        else:
+            if len(score) > MAX_NMS_CANDIDATES:
+                top = np.argsort(-score, kind="stable")[:MAX_NMS_CANDIDATES]
+                xyxy, score, cls = xyxy[top], score[top], cls[top]
+            idx = nms(xyxy, score, cls, self.iou_threshold, self.max_det, CONTAINMENT)
         xyxy = unletterbox_boxes(xyxy[idx], scale, pad)
         xyxy = clip_boxes(xyxy, image_hw[1], image_hw[0])
         return Detections(xyxy=xyxy, score=score[idx], class_id=cls[idx])
@@ -472,7 +706,7 @@ class OnnxDetector:
             t1 = time.perf_counter()
             raw = self.infer(tensor)
             t2 = time.perf_counter()
-            dets = self.postprocess(raw, scale, pad, crop.shape[:2])
+            dets = self.postprocess(raw, scale, pad, crop.shape[:2], tensor.shape[2:])
             dets.xyxy += (x0, y0, x0, y0)
             found.append(dets)
             windows_px.append((x0, y0, x0 + crop.shape[1], y0 + crop.shape[0]))
@@ -496,6 +730,12 @@ class OnnxDetector:
         tensor = np.full((1, 3, h, w), 114 / 255.0, dtype=self._input_dtype)
         for _ in range(runs):
             self.infer(tensor)
+
+
+def _xyxy(cxcywh: np.ndarray) -> np.ndarray:
+    """(N, 4) cx, cy, w, h -> x0, y0, x1, y1 (float64)."""
+    xy, half = cxcywh[:, :2].astype(np.float64), cxcywh[:, 2:4].astype(np.float64) / 2.0
+    return np.concatenate([xy - half, xy + half], axis=1)
 
 
 def _as_hw(size: int | tuple[int, int]) -> tuple[int, int]:

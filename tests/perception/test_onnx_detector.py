@@ -7,9 +7,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import onnx
 import pytest
-from onnx import TensorProto, helper, numpy_helper
+from support.onnx_models import constant_output_model
 
 from lookahead.perception.detections import CLASS_ID
 from lookahead.perception.detectors import Detector, ModelError, OnnxDetector
@@ -65,52 +64,11 @@ def make_model(
     dynamic_output: bool = False,
     metadata: dict[str, str] | None = None,
 ) -> Path:
-    """Save an ONNX model whose output is ``output`` whatever ``images`` holds.
-
-    ``dynamic_output``: the output is ``Reshape(flat constant, shape + 0 * max(images))``,
-    so its shape is unknown until run time (onnxruntime reports ["b", "f", "n"]).
-    """
-    if dynamic_output:
-        const = [
-            ("flat", output.reshape(-1)),
-            ("shape", np.array(output.shape, np.float32)),
-            ("zero", np.array(0, np.float32)),
-        ]
-        nodes = [
-            helper.make_node("Constant", [], [n], value=numpy_helper.from_array(v, n))
-            for n, v in const
-        ]
-        nodes += [
-            helper.make_node("ReduceMax", ["images"], ["peak"], keepdims=0),
-            helper.make_node("Mul", ["peak", "zero"], ["nil"]),
-            helper.make_node("Add", ["shape", "nil"], ["shape_f"]),
-            helper.make_node("Cast", ["shape_f"], ["shape_i"], to=TensorProto.INT64),
-            helper.make_node("Reshape", ["flat", "shape_i"], ["output0"]),
-        ]
-        out_shape: list[int | str] = ["b", "f", "n"]
-    else:
-        nodes = [
-            helper.make_node(
-                "Constant", [], ["output0"], value=numpy_helper.from_array(output, "c")
-            )
-        ]
-        out_shape = list(output.shape)
-    graph = helper.make_graph(
-        nodes,
-        "const",
-        [helper.make_tensor_value_info("images", TensorProto.FLOAT, input_shape or [1, 3, S, S])],
-        [helper.make_tensor_value_info("output0", TensorProto.FLOAT, out_shape)],
-    )
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
-    model.ir_version = 9
-    props = dict(metadata or {})
-    if names is not None:
-        props["names"] = names
-    if props:
-        helper.set_model_props(model, props)
-    onnx.checker.check_model(model)
-    onnx.save(model, path)
-    return path
+    """Save an ONNX model whose output is ``output`` whatever ``images`` holds (``dynamic_output``:
+    its shape unknown until run time, reported as ["b", "f", "n"])."""
+    props = dict(metadata or {}) | ({} if names is None else {"names": names})
+    return constant_output_model(path, output, input_shape or [1, 3, S, S], props,
+                                 dynamic_output=["b", "f", "n"] if dynamic_output else None)
 
 
 EXPECTED_XYXY = np.array(

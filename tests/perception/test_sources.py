@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import signal
 import threading
 import time
@@ -13,12 +14,16 @@ import cv2
 import numpy as np
 import pytest
 
+import lookahead.perception.sources as sources
 from lookahead.perception.sources import (
+    STREAM_FFMPEG_OPTIONS,
     CaptureThread,
     ImageFolderSource,
     ReconnectPolicy,
     SourceError,
+    SourceGap,
     VideoSource,
+    default_capture,
     open_source,
 )
 
@@ -62,8 +67,8 @@ class FakeCapture:
     """A scripted ``cv2.VideoCapture``: yields ``frames`` (BGR; an exception is raised), then fails reads."""
 
     def __init__(self, frames: Iterable[np.ndarray | Exception] = (), opened: bool = True,
-                 fps: float = 0.0, read_s: float = 0.0) -> None:
-        self.frames, self.opened, self.fps, self.read_s = iter(frames), opened, fps, read_s
+                 fps: float = 0.0, read_s: float = 0.0, count: float = 0.0) -> None:
+        self.frames, self.opened, self.fps, self.read_s, self.count = iter(frames), opened, fps, read_s, count
         self.released = False
 
     def isOpened(self) -> bool:
@@ -77,7 +82,8 @@ class FakeCapture:
         return (item is not None, item)
 
     def get(self, prop: int) -> float:
-        return {cv2.CAP_PROP_FPS: self.fps, cv2.CAP_PROP_FRAME_WIDTH: W, cv2.CAP_PROP_FRAME_HEIGHT: H}.get(prop, 0.0)
+        return {cv2.CAP_PROP_FPS: self.fps, cv2.CAP_PROP_FRAME_WIDTH: W, cv2.CAP_PROP_FRAME_HEIGHT: H,
+                cv2.CAP_PROP_FRAME_COUNT: self.count}.get(prop, 0.0)
 
     def release(self) -> None:
         self.released = True
@@ -226,8 +232,12 @@ def test_live_stream_drop_reconnects_with_backoff_and_records_the_gaps() -> None
 def test_reconnect_policy_backs_off_exponentially_to_a_cap() -> None:
     policy = ReconnectPolicy()
     assert [policy.delay(k) for k in range(7)] == [0.5, 1, 2, 4, 8, 8, 8]
+    assert policy.total_wait_s() == 0.5 + 1 + 2 + 4 + 8 * 6  # bounded: 10 attempts
+    assert ReconnectPolicy(initial_s=1, factor=3, max_s=5, max_attempts=3).total_wait_s() == 1 + 3 + 5
     with pytest.raises(ValueError):
         ReconnectPolicy(factor=0.5)
+    assert SourceGap(3, lost_at=10.0).duration is None
+    assert SourceGap(3, lost_at=10.0, resumed_at=12.5).duration == 2.5
 
 
 def test_a_reader_exception_is_raised_in_the_consumer() -> None:
@@ -275,6 +285,38 @@ def test_camera_index_and_urls_open_live_through_the_factory() -> None:
     assert [target for target, _ in factory.calls] == [0, "https://host/feed.mjpg"]
     with pytest.raises(SourceError, match="camera 3"):
         open_source(3, capture_factory=FakeFactory(FakeCapture(opened=False)))
+
+
+def test_an_http_url_is_live_unless_the_capture_reports_a_frame_count() -> None:
+    factory = FakeFactory(FakeCapture(count=-1.0), FakeCapture(fps=25, count=N), FakeCapture(count=N))
+    assert open_source("http://cam.local/video.mjpg", capture_factory=factory).live
+    clip = open_source("https://host/clip.mp4", capture_factory=factory)
+    assert (clip.live, clip.frame_count, clip.fps) == (False, N, 25)
+    assert open_source("rtsp://cam.local/stream", capture_factory=factory).live  # RTSP: always live
+    for url in ("rtmp://host/app/key", "srt://host:9000", "udp://239.0.0.1:1234"):
+        assert open_source(url, capture_factory=FakeFactory(FakeCapture())).live
+
+
+def test_stream_ffmpeg_options_are_set_for_the_open_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    seen = []
+
+    def capture(target: object, *args: object) -> FakeCapture:
+        seen.append((target, args, os.environ.get("OPENCV_FFMPEG_CAPTURE_OPTIONS")))
+        return FakeCapture()
+
+    monkeypatch.setattr(sources.cv2, "VideoCapture", capture)
+    monkeypatch.delenv("OPENCV_FFMPEG_CAPTURE_OPTIONS", raising=False)
+    default_capture("rtsp://cam.local/stream")
+    default_capture("clip.mp4")
+    assert "OPENCV_FFMPEG_CAPTURE_OPTIONS" not in os.environ
+    monkeypatch.setenv("OPENCV_FFMPEG_CAPTURE_OPTIONS", "rtsp_transport;udp")  # the user's own: used as it is
+    default_capture("rtsp://cam.local/stream")
+    assert os.environ["OPENCV_FFMPEG_CAPTURE_OPTIONS"] == "rtsp_transport;udp"
+    (url, url_args, url_env), (path, path_args, path_env), (_, _, user_env) = seen
+    assert url_env == STREAM_FFMPEG_OPTIONS and "fpsprobesize;0" in url_env
+    assert url_args[0] == cv2.CAP_FFMPEG and cv2.CAP_PROP_READ_TIMEOUT_MSEC in url_args[1]
+    assert (path, path_args, path_env) == ("clip.mp4", (), None)
+    assert user_env == "rtsp_transport;udp"
 
 
 def test_an_unreachable_stream_is_an_error_without_its_password() -> None:

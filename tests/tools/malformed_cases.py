@@ -1137,15 +1137,4 @@ EXTENDED: frozenset[str] = frozenset("""
 """.split())
 CORE: list[Case] = [c for c in CASES if c.id not in EXTENDED]
 
-#: For each bomb, a case of the same command refused on a one-line mistake: its wall and CPU time
-#: (Python start-up, that command's imports, the load on the machine right then) is what the bomb
-#: may exceed by at most 2 s (``test_bomb_refused_fast``).
-BOMB_REFS: dict[str, str] = {
-    "validate-huge": "validate-tabs", "validate-deep-seq": "validate-tabs", "validate-laughs": "validate-tabs",
-    "run-laughs": "run-tabs", "suite-laughs": "suite-tabs", "sweep-grid-10pow10": "sweep-tabs",
-    "sweep-laughs": "sweep-tabs", "replay-config-laughs": "replay-config-tabs",
-    "export-camera-huge": "export-camera-zero", "evaldet-model-imgsz": "evaldet-model-text",
-    "evaldet-model-imgsz-32": "evaldet-model-text", "track-frame_1e10": "track-garbage",
-    "evalmot-gt-frame_1e10": "evalmot-gt-garbage",
-}
 BY_ID: dict[str, Case] = {c.id: c for c in CASES}

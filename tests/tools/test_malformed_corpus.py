@@ -18,11 +18,10 @@ big and hostile ones generated at test time) holds that promise to account:
   each naming its file.
 * ``test_bomb_refused_fast`` -- the bombs (billion laughs in a scenario, suite, sweep and replay
   config; the 10^10 sweep grid; hostile ONNX ``imgsz`` metadata; MOT frame 10^10; a 100 MB file;
-  20000-level nesting; --camera 60000x60000) alone, one at a time: refused (exit 2, one line),
-  <= 300 MB peak RSS, and within 2 s of the command's own work: wall and CPU time at most 2 s above
-  those of the same command refusing a one-line mistake (``BOMB_REFS``), run right before it. That
-  reference holds Python start-up and the command's imports (1.5-2.6 s of CPU for most commands,
-  against 0.3 s for ``lookahead --help``) and the load of the other processes on the machine.
+  20000-level nesting; --camera 60000x60000) alone, one at a time: refused (exit 2, one line) in
+  under 2 s of wall and CPU time and under 300 MB peak RSS, Python's start-up and the command's
+  imports included (about 1 s and 125 MB: every command checks its input before it imports the
+  simulator).
 * ``test_export_dataset_name_traversal`` -- a scenario named ``../../escape`` exports fine and
   writes only under ``--out``.
 """
@@ -39,9 +38,7 @@ from pathlib import Path
 
 import pytest
 from malformed_cases import (  # tests/tools is on sys.path (rootdir-relative import)
-    BOMB_REFS,
     BOMBS,
-    BY_ID,
     CASES,
     CORE,
     CORPUS,
@@ -59,9 +56,9 @@ from malformed_cases import (  # tests/tools is on sys.path (rootdir-relative im
 WORKERS = 3  # children at a time
 HEAVY = ("train-detector", "soup-detector", "bench", "demo")
 SELECTED = CASES if os.environ.get("LOOKAHEAD_MALFORMED_ALL") else CORE
-BOMB_EXTRA_S = 2.0
-BOMB_RSS_BYTES = 300 * (1 << 20)
-BOMB_EXTRA_RSS_BYTES = 32 * (1 << 20)  # above the reference, where its imports alone reach 300 MB
+BOMB_S = 2.0  # a bomb is refused in under this (wall and CPU), start-up included
+BOMB_RSS_BYTES = 300 * (1 << 20)  # ... at under this peak RSS
+BOMB_RETRIES = 2  # runs more of a case whose wall time alone is over (the machine's load)
 
 
 # ----------------------------------------------------------------------------------- fixtures
@@ -267,9 +264,7 @@ def startup_s(where: Path) -> float:
     return min(walls)
 
 
-def test_bombs_have_references() -> None:
-    assert {c.id for c in BOMBS} == set(BOMB_REFS)
-    assert all(r in BY_ID for r in BOMB_REFS.values())
+def test_bombs_cover_every_kind() -> None:
     kinds = " ".join(c.what for c in BOMBS)
     for what in ("billion laughs", "10^10 variants", "imgsz", "frame 10^10", "100 MB", "nested"):
         assert what in kinds
@@ -277,35 +272,27 @@ def test_bombs_have_references() -> None:
 
 @pytest.mark.parametrize("case", BOMBS, ids=[c.id for c in BOMBS])
 def test_bomb_refused_fast(case: Case, bases: Bases, tmp_path: Path) -> None:
-    """Alone, one at a time: refused (exit 2, one line) within 2 s and <= 300 MB.
-
-    "Within 2 s" is of the command's own work on the bomb: its wall and CPU time may exceed those of
-    the same command refusing a one-line mistake (``BOMB_REFS``; run right before, so that Python
-    start-up, the command's imports and the load other processes put on this shared machine count on
-    both sides) by at most 2 s each. ``lookahead --help`` start-up is shown for scale. Peak RSS is at
-    most 300 MB, or, for the commands (suite, sweep, replay, export-dataset) whose imports alone come
-    to about 300 MB in a fresh venv, at most 32 MB above the reference's: the bomb itself costs
-    nothing beyond the command's start-up. (Issue 31: the literal 300 MB for those commands needs
-    them to read their input before importing the simulator.)"""
-    ref_case = BY_ID[BOMB_REFS[case.id]]
-    ref_ctx = Ctx(bases=bases, dir=tmp_path / "ref")
-    ref_ctx.dir.mkdir()
+    """Alone, one at a time: refused (exit 2, one line) in under 2 s (wall and CPU) and under 300 MB
+    peak RSS, Python's start-up and the command's imports included: every command reads and checks
+    its input before it imports the simulator. A wall time over 2 s with the CPU time under it is
+    the machine's load, not the command's: such a case runs again (at most twice more) (``lookahead --help``
+    start-up is shown for scale)."""
     ctx = Ctx(bases=bases, dir=tmp_path / "bomb")
     ctx.dir.mkdir()
     argv = ctx.fill(case)
-    startup = startup_s(tmp_path)
-    ref = run_cli(ref_ctx.fill(ref_case), ref_ctx.dir, timeout=60)
     res = run_cli(argv, ctx.dir)
-    found = problems(case, ctx, res, rss_limit=max(BOMB_RSS_BYTES, ref.maxrss_bytes + BOMB_EXTRA_RSS_BYTES))
-    scale = (f"(reference {ref_case.id}: {ref.wall_s:.2f} s wall, {ref.cpu_s:.2f} s CPU; "
-             f"--help start-up {startup:.2f} s)")
-    if res.wall_s > ref.wall_s + BOMB_EXTRA_S:
-        found.append(f"took {res.wall_s:.2f} s wall > reference + {BOMB_EXTRA_S:.0f} s {scale}")
-    if res.cpu_s > ref.cpu_s + BOMB_EXTRA_S:
-        found.append(f"used {res.cpu_s:.2f} s CPU > reference + {BOMB_EXTRA_S:.0f} s {scale}")
+    for _ in range(BOMB_RETRIES):
+        if not res.wall_s >= BOMB_S > res.cpu_s:
+            break
+        res = run_cli(argv, ctx.dir)
+    found = problems(case, ctx, res, rss_limit=BOMB_RSS_BYTES)
+    scale = f"(--help start-up {startup_s(tmp_path):.2f} s)"
+    if res.wall_s >= BOMB_S:
+        found.append(f"took {res.wall_s:.2f} s wall >= {BOMB_S:.0f} s {scale}")
+    if res.cpu_s >= BOMB_S:
+        found.append(f"used {res.cpu_s:.2f} s CPU >= {BOMB_S:.0f} s {scale}")
     assert not found, report(case, res, found)
-    print(f"{case.id}: {res.wall_s:.2f} s wall, {res.cpu_s:.2f} s CPU, {res.maxrss_bytes / 2**20:.0f} MB "
-          f"(reference {ref.maxrss_bytes / 2**20:.0f} MB) {scale}")
+    print(f"{case.id}: {res.wall_s:.2f} s wall, {res.cpu_s:.2f} s CPU, {res.maxrss_bytes / 2**20:.0f} MB {scale}")
 
 
 def test_export_dataset_name_traversal(tmp_path: Path) -> None:

@@ -2,7 +2,7 @@
 
 Runs ``bench sim``, ``bench track``, ``bench detect``, ``bench sinks``, ``bench env``
 (``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 vs 2
-workers) and the full loop (rendered, gt detector, every stage) on the same
+workers), ``bench watch`` (the watch pipeline vs its slowest stage) and the full loop (rendered, gt detector, every stage) on the same
 machine in one run; cases are prefixed with their benchmark's name and all
 ratios are gathered.
 """
@@ -23,6 +23,7 @@ from lookahead.tools.bench.env import bench_env
 from lookahead.tools.bench.sinks import bench_sinks
 from lookahead.tools.bench.sweep import bench_sweep
 from lookahead.tools.bench.track import bench_track
+from lookahead.tools.bench.watch import bench_watch
 
 
 def bench_loop(scenario_path: Path) -> dict:
@@ -48,6 +49,7 @@ def bench_all(repeats: int = 3) -> dict:
         "env": bench_env(scen / "highway_traffic.yaml"),
         "sweep": bench_sweep(scen / "sweeps" / "aeb_stationary_car.yaml"),
         "loop": bench_loop(scen / "urban_mix.yaml"),
+        "watch": bench_watch(scen / "ped_crossing_nearside.yaml", repeats=repeats),
     }
     cases, ratios = {}, {}
     for name, part in parts.items():
@@ -56,4 +58,5 @@ def bench_all(repeats: int = 3) -> dict:
         ratios.update(part.get("ratios", {}))
     track = {k: parts["track"][k] for k in ("accuracy", "accuracy_pooled", "sort_reference") if k in parts["track"]}
     return {"machine": machine(), "cases": cases, "ratios": ratios, "loop_fps": parts["loop"]["fps"],
-            "detect_fps": parts["detect"]["fps"], "track_accuracy": track}
+            "detect_fps": parts["detect"]["fps"], "track_accuracy": track, "watch_fps": parts["watch"]["fps"],
+            "watch_latency_ms": parts["watch"]["latency_ms"]}

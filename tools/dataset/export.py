@@ -82,7 +82,7 @@ from lookahead.tools.dataset.scene_gen import (
     overlapping_split,
     split_seeds,
 )
-from lookahead.tools.runs.suite import is_suite, load_suite, read_yaml
+from lookahead.tools.runs.inputs import is_suite, load_suite, read_yaml
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 from lookahead.tools.sinks.rundir import OutputError, inside, prepare_dir, safe_file_stem
 

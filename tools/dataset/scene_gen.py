@@ -24,7 +24,7 @@ import numpy as np
 from pydantic import AfterValidator, Field, ValidationError, field_validator, model_validator
 
 from lookahead.sim.scenario import SUBTYPES, Scenario, ScenarioError, Strict
-from lookahead.tools.runs.suite import read_yaml
+from lookahead.tools.runs.inputs import read_yaml
 
 
 def _ordered(v: tuple) -> tuple:

@@ -59,12 +59,11 @@ from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
 from lookahead.perception.frame import EgoOdometry, Frame
-from lookahead.perception.safe_yaml import first_non_finite
 from lookahead.sim.aeb import Aeb
 from lookahead.sim.records import jsonable
 from lookahead.sim.runner import camera_from_scenario
-from lookahead.sim.scenario import Scenario, field_path
-from lookahead.tools.runs.suite import read_yaml
+from lookahead.sim.scenario import Scenario, format_validation
+from lookahead.tools.runs.inputs import OVERRIDE_SECTIONS, ReplayError, read_overrides  # noqa: F401 (re-exported)
 from lookahead.tools.scoring.intent import aeb_brake_of
 from lookahead.tools.scoring.io import MAX_TICK, run_record, ticks_records
 from lookahead.tools.scoring.run import score_run
@@ -88,15 +87,6 @@ from lookahead.tools.sinks.rundir import (
 log = logging.getLogger(__name__)
 
 REPLAY_STAGES = ("preprocess", "detect", "track", "estimate", "intent", "tick")
-#: The sections a replay config may override (``--config``).
-OVERRIDE_SECTIONS = ("tracker", "estimator", "intent", "alerts")
-
-
-class ReplayError(ValueError):
-    """A replay that cannot run on its input (config, recorded run); one line naming the file
-    (and line, for ``ticks.jsonl``) and the field."""
-
-
 class Perturbation(BaseModel):
     """Extra detector noise added to the recorded detections (fractions of box size, probabilities)."""
 
@@ -242,44 +232,7 @@ def load_scenario_of(run_dir: Path | RunDir) -> tuple[dict, Scenario]:
     try:
         return run, Scenario.model_validate(run["scenario"])
     except ValidationError as e:
-        raise ReplayError(f"{path}: scenario.{_validation_message(e)}") from None
-
-
-def _validation_message(err: ValidationError, drop: tuple = ()) -> str:
-    """``field.path: message`` of a validation error's first error (``drop``: a leading location
-    to leave out, as ``perception`` for a replay config's ``tracker``)."""
-    first = err.errors()[0]
-    loc = tuple(first["loc"])
-    if drop and loc[: len(drop)] == drop:
-        loc = loc[len(drop):]
-    msg = first["msg"].removeprefix("Value error, ")
-    if first["type"] == "extra_forbidden":
-        msg = "unknown field"
-    elif "input" in first and first["type"] != "missing" and not isinstance(first["input"], dict | list):
-        msg += f", got {first['input']!r:.40}"
-    more = f" (and {err.error_count() - 1} more)" if err.error_count() > 1 else ""
-    return f"{field_path(loc) or '(top level)'}: {msg}{more}"
-
-
-def read_overrides(config: str | Path) -> dict:
-    """A replay config (``--config``): a YAML mapping of ``OVERRIDE_SECTIONS``, each a mapping.
-    One-line ``ScenarioError`` (missing, too large, malformed YAML) or ``ReplayError`` (naming
-    the file and the section) when it is not."""
-    data = read_yaml(config, "replay config")
-    if not isinstance(data, dict):
-        raise ReplayError(f"{config}: expected a mapping of {' / '.join(OVERRIDE_SECTIONS)} overrides, "
-                          f"got {type(data).__name__}")
-    unknown = [str(k) for k in data if k not in OVERRIDE_SECTIONS]
-    if unknown:
-        raise ReplayError(f"{config}: unknown section(s) {', '.join(sorted(unknown))}; "
-                          f"expected {', '.join(OVERRIDE_SECTIONS)}")
-    for key, value in data.items():
-        if not isinstance(value, dict):
-            raise ReplayError(f"{config}: {key}: expected a mapping of settings, got {type(value).__name__}")
-    bad = first_non_finite(data)
-    if bad is not None:
-        raise ReplayError(f"{config}: {field_path(bad[0])}: expected a finite number, got {bad[1]!r}")
-    return data
+        raise ReplayError(format_validation(str(path), e, under=("scenario",))) from None
 
 
 def replay_run(
@@ -387,7 +340,7 @@ def _with_overrides(scenario: Scenario, overrides: dict, where: str = "replay ov
     try:
         return Scenario.model_validate(data)
     except ValidationError as e:
-        raise ReplayError(f"{where}: {_validation_message(e, drop=('perception',))}") from None
+        raise ReplayError(format_validation(where, e, drop=("perception",))) from None
     except (TypeError, ValueError) as e:  # a validator's own error
         raise ReplayError(f"{where}: {' '.join(str(e).split())}") from None
 
@@ -430,9 +383,13 @@ def replay_suite(
     return summary
 
 
-def replay_command(source: Path, out: Path, perturb: Perturbation, config: Path | None = None) -> dict:
-    """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides."""
-    overrides = None if config is None else read_overrides(config)
+def replay_command(
+    source: Path, out: Path, perturb: Perturbation, config: Path | None = None, overrides: dict | None = None,
+) -> dict:
+    """CLI body: a run or a suite directory; ``config`` a YAML/JSON file of overrides (``overrides``:
+    its content, already read by ``tools.runs.inputs.read_overrides``)."""
+    if overrides is None and config is not None:
+        overrides = read_overrides(config)
     where = str(config) if config is not None else "replay overrides"
     source = Path(source)
     if not source.exists():

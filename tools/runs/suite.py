@@ -7,9 +7,15 @@ from multiprocessing import get_context
 from pathlib import Path
 
 from lookahead.intent.stack import build_detector
-from lookahead.perception.safe_yaml import YamlError, load_yaml, read_yaml_text
 from lookahead.sim.runner import Runner
-from lookahead.sim.scenario import ScenarioError, load_scenario, with_aeb, with_detector
+from lookahead.sim.scenario import load_scenario, with_aeb, with_detector
+from lookahead.tools.runs.inputs import (  # noqa: F401 (re-exported)
+    MAX_SUITE_SCENARIOS,
+    SUITE_KEYS,
+    is_suite,
+    load_suite,
+    read_yaml,
+)
 from lookahead.tools.scoring.run import score_run
 from lookahead.tools.scoring.totals import RunFrames, suite_totals
 from lookahead.tools.sinks.keyframes import KeyFrameSink
@@ -23,51 +29,6 @@ from lookahead.tools.sinks.rundir import (
 )
 from lookahead.tools.sinks.store import SqliteStore, open_db
 from lookahead.tools.sinks.video import VideoSink
-
-MAX_SUITE_SCENARIOS = 10_000
-SUITE_KEYS = ("name", "description", "scenarios")
-
-
-def read_yaml(path: str | Path, what: str = "suite") -> object:
-    """Parsed YAML of ``path``, with the limits of ``perception.safe_yaml``; one-line
-    ``ScenarioError`` for a missing, oversized or malformed file."""
-    try:
-        return load_yaml(read_yaml_text(path, what), str(path))[0]
-    except YamlError as e:
-        raise ScenarioError(str(e)) from None
-
-
-def is_suite(data: object) -> bool:
-    return isinstance(data, dict) and "scenarios" in data
-
-
-def load_suite(path: str | Path) -> tuple[str, list[Path]]:
-    """(name, scenario paths) of a suite YAML; one-line ``ScenarioError`` when it is wrong."""
-    p = Path(path)
-    data = read_yaml(p)
-    if not isinstance(data, dict) or not isinstance(data.get("scenarios"), list) or not data["scenarios"]:
-        raise ScenarioError(f"{p}: scenarios: expected a non-empty list of scenario paths")
-    unknown = sorted(str(k) for k in data if k not in SUITE_KEYS)
-    if unknown:
-        raise ScenarioError(f"{p}: {unknown[0]}: unknown field (a suite has {', '.join(SUITE_KEYS)})")
-    if not isinstance(data.get("name", ""), str) or not isinstance(data.get("description", ""), str):
-        raise ScenarioError(f"{p}: name and description must be text")
-    entries = data["scenarios"]
-    bad = next((i for i, s in enumerate(entries) if not isinstance(s, str) or not s), None)
-    if bad is not None:
-        raise ScenarioError(f"{p}: scenarios[{bad}]: expected a scenario path, got {entries[bad]!r:.60}")
-    if len(entries) > MAX_SUITE_SCENARIOS:
-        raise ScenarioError(f"{p}: scenarios: {len(entries)} entries, more than the {MAX_SUITE_SCENARIOS} allowed")
-    paths = [(p.parent / s).resolve() for s in entries]
-    stems = [safe_file_stem(s.stem).lower() for s in paths]  # each run's directory (case-insensitive file systems)
-    twice = next((i for i, s in enumerate(stems) if stems.index(s) != i), None)
-    if twice is not None:
-        raise ScenarioError(f"{p}: scenarios[{twice}]: {entries[twice]} would share its run directory with "
-                            f"{entries[stems.index(stems[twice])]}; give the files distinct names")
-    missing = [s for s in paths if not s.is_file()]
-    if missing:
-        raise ScenarioError(f"{p}: scenarios: no such scenario file {missing[0]}")
-    return str(data.get("name", p.stem)), paths
 
 
 def run_one(

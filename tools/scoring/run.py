@@ -30,8 +30,10 @@ from lookahead.tools.scoring.detection import evaluate_detection
 from lookahead.tools.scoring.estimation import evaluate_estimation
 from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 from lookahead.tools.scoring.io import RunData, load_run
+from lookahead.tools.scoring.observed import has_ground_truth, observed_section
 from lookahead.tools.scoring.timing import load_timings, timing_section
 from lookahead.tools.scoring.tracking import evaluate_tracking
+from lookahead.tools.scoring.truth import TruthJoined
 from lookahead.tools.sinks.rundir import (
     RunDir,
     as_rundir,
@@ -55,23 +57,30 @@ def evaluate(run: RunData) -> dict[str, dict]:
 
 
 def compute_sections(run: RunDir | Path) -> dict[str, dict]:
-    """The sections of a run directory (nothing written), with ``timing`` when recorded.
+    """The sections of a run directory (nothing written), with ``timing`` when recorded; a run
+    without ground truth (``lookahead watch``) gets the ``observed`` counts instead of scores.
 
     ``ticks.jsonl`` is parsed once (``RunDir``): the frame arrays and the intent
     fields are read from the same records.
     """
     rd = as_rundir(run)
-    sections = evaluate(load_run(rd))
-    sections.update(intent_sections(load_intent_run(rd)))
+    if has_ground_truth(rd):
+        sections = evaluate(load_run(rd))
+        sections.update(intent_sections(load_intent_run(rd)))
+    else:  # real video: nothing to score against (``score --truth`` joins a simulated run's)
+        load_run(rd)  # every record checked all the same
+        sections = {"observed": observed_section(rd)}
     timings = load_timings(rd)
     if timings:
         sections["timing"] = timing_section(timings)
     return sections
 
 
-def score_run(run: RunDir | Path) -> dict:
+def score_run(run: RunDir | Path, truth: RunDir | Path | None = None) -> dict:
     """Score a run directory (a path, or a ``RunDir`` whose parsed files are reused) and
-    merge the sections into its ``metrics.json``.
+    merge the sections into its ``metrics.json``. ``truth``: the simulated run whose raw video a
+    ``lookahead watch`` run (``run``, no ground truth) watched; its ground truth, matched by
+    camera frame, is scored against (``tools.scoring.truth.TruthJoined``).
 
     Returns:
         The whole merged ``metrics.json`` content.
@@ -81,11 +90,14 @@ def score_run(run: RunDir | Path) -> dict:
         RunDirError: malformed ``ticks.jsonl`` line or unreadable ``metrics.json``
             (one-line message naming the file and line); nothing is written.
     """
-    rd = as_rundir(run)
+    rd = as_rundir(run) if truth is None else TruthJoined(Path(run), truth)
     sections = compute_sections(rd)
     metrics = merge_sections(rd.read_metrics(), sections)
     path = write_metrics(rd.path, metrics)
-    d, t = sections["detection"], sections["tracking"]
-    log.info("scored %s -> %s: precision %s recall %s ap50 %s mota %s",
-             rd.path, path, d["precision"], d["recall"], d["ap50"], t["mota"])
+    if "detection" in sections:
+        d, t = sections["detection"], sections["tracking"]
+        log.info("scored %s -> %s: precision %s recall %s ap50 %s mota %s",
+                 rd.path, path, d["precision"], d["recall"], d["ap50"], t["mota"])
+    else:
+        log.info("summarised %s (no ground truth) -> %s", rd.path, path)
     return metrics

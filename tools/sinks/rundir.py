@@ -28,7 +28,6 @@ import logging
 import math
 import os
 import platform
-import re
 import tempfile
 from collections.abc import Callable
 from functools import cached_property
@@ -42,50 +41,20 @@ from lookahead.intent.labels import NEVER
 from lookahead.perception.calibration import CalibrationError, CameraCalibration, write_calibration
 from lookahead.sim.records import TickRecord, jsonable
 from lookahead.sim.scenario import Scenario
+from lookahead.tools.sinks.paths import MAX_STEM, OutputError, inside, safe_file_stem  # noqa: F401 (re-exported)
 
 RUN_FILE = "run.json"
 TICKS_FILE = "ticks.jsonl"
 TIMINGS_FILE = "timings.jsonl"
 METRICS_FILE = "metrics.json"
 CALIBRATION_FILE = "camera.yaml"  # the run's camera as a calibration file (perception.calibration)
+EGO_SPEED_FILE = "ego_speed.csv"  # t (s, 0 at the first frame), speed (m/s): `lookahead watch --ego-speed`
 SUMMARY_FILE = "summary.json"  # a suite's (or sweep's) directory
 
 T = TypeVar("T")
 
 
-class OutputError(RuntimeError):
-    """An output path that cannot be written; ``str()`` is one line."""
-
-
 log = logging.getLogger(__name__)
-
-
-#: Longest file stem made from a name (``safe_file_stem``), before the frame suffix.
-MAX_STEM = 96
-_UNSAFE = re.compile(r"[^A-Za-z0-9._-]")
-
-
-def safe_file_stem(name: object, max_len: int = MAX_STEM) -> str:
-    """``name`` as a file or directory name of one path component: characters other than
-    ``[A-Za-z0-9._-]`` replaced by ``_``, leading dots dropped (no ``..``, no hidden file),
-    at most ``max_len`` characters. A name that is already such a stem is returned as it is;
-    any other gets ``-`` and 8 hex digits of a hash of the original appended, so two distinct
-    names give two distinct stems (``base[v=1]`` -> ``base_v_1_-<hash>``)."""
-    text = str(name)
-    stem = _UNSAFE.sub("_", text).lstrip(".")
-    if stem == text and 0 < len(stem) <= max_len:
-        return stem
-    digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
-    return f"{stem[: max(1, max_len - 9)]}-{digest}" if stem else f"_-{digest}"
-
-
-def inside(root: Path, path: Path) -> Path:
-    """``path``, checked to resolve to a place inside ``root`` (``OutputError`` otherwise): no
-    output of an export lands outside ``--out`` whatever the names in its input."""
-    base, target = Path(root).resolve(), Path(path).resolve()
-    if target != base and base not in target.parents:
-        raise OutputError(f"{path}: outside the output directory {root}; refusing to write there")
-    return path
 
 
 class RunDirError(ValueError):
@@ -221,7 +190,7 @@ class RunDirWriter:
     are directories or read-only); nothing is written or truncated before ``on_start``.
     """
 
-    FILES = (RUN_FILE, TICKS_FILE, TIMINGS_FILE)
+    FILES = (RUN_FILE, TICKS_FILE, TIMINGS_FILE, EGO_SPEED_FILE)
 
     def __init__(self, out_dir: Path, scenario: Scenario, source: str | None = None) -> None:
         self.dir = prepare_dir(Path(out_dir))
@@ -234,6 +203,8 @@ class RunDirWriter:
         self.scenario = scenario
         self.source = source
         self._ticks = None
+        self._speeds = None
+        self._t0: float | None = None
         self._timings: list[dict] = []
         self.frames = 0
 
@@ -254,16 +225,25 @@ class RunDirWriter:
             except CalibrationError as e:
                 log.warning("%s: camera not written as a calibration file (%s)", self.dir, e)
         self._ticks = (self.dir / TICKS_FILE).open("w", encoding="utf-8")
+        self._speeds = (self.dir / EGO_SPEED_FILE).open("w", encoding="utf-8")
+        self._speeds.write("t,speed\n")  # the speed log `lookahead watch --ego-speed` reads (perception.ego_speed)
 
     def on_tick(self, record: TickRecord) -> None:
         self._ticks.write(tick_line(record.to_dict()))
         self._ticks.flush()  # one write per frame: a killed run keeps every whole line written
+        if self._t0 is None:
+            self._t0 = record.t
+        speed = record.ego.get("speed")
+        if record.ego.get("speed_known", True) and speed is not None and math.isfinite(speed):
+            self._speeds.write(f"{record.t - self._t0:.6f},{speed:.6f}\n")
+            self._speeds.flush()
         self._timings.append(record.timings)  # completed by the runner after the sinks return
         self.frames += 1
 
     def on_end(self, summary: dict) -> None:
-        if self._ticks is not None:
-            self._ticks.close()
+        for f in (self._ticks, self._speeds):
+            if f is not None:
+                f.close()
         with (self.dir / TIMINGS_FILE).open("w", encoding="utf-8") as f:
             for t in self._timings:
                 f.write(timings_line(t))

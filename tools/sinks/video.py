@@ -60,6 +60,7 @@ log = logging.getLogger(__name__)
 #: The video format: Motion-JPEG in fragmented MP4 (``VideoSink.fourcc``).
 FOURCC = "mjpg"
 JPEG_QUALITY = 80  # about the MPEG-4 Part 2 it replaces (PSNR ~36 dB), ~29 KB a 640x360 frame
+RAW_JPEG_QUALITY = 95  # a raw (unannotated) camera video, the input of ``lookahead watch``
 #: Frames queued for the encoding thread at most (a killed run loses at most this + 1).
 QUEUE_FRAMES = 2
 CLASS_NAMES_ZH = {
@@ -333,11 +334,13 @@ class FragmentedMjpegWriter:
             os.close(fd)
 
 
-def open_mp4_writer(path: Path, fps: float, size: tuple[int, int]) -> tuple[FragmentedMjpegWriter, str]:
+def open_mp4_writer(
+    path: Path, fps: float, size: tuple[int, int], quality: int = JPEG_QUALITY,
+) -> tuple[FragmentedMjpegWriter, str]:
     """An opened writer for ``path`` (W, H) and its FOURCC; ``OutputError`` (one line) if the file
     cannot be created."""
     try:
-        return FragmentedMjpegWriter(path, fps, size), FOURCC
+        return FragmentedMjpegWriter(path, fps, size, quality), FOURCC
     except OSError as e:
         raise OutputError(f"{path}: cannot write the video ({e.strerror or e})") from None
 
@@ -608,13 +611,14 @@ class Overlay:
     def _draw_header(self, img: np.ndarray, record: TickRecord, st: _Style, bottom: int) -> None:
         """The header strip (rows 0..bottom): t, frame, ego speed, brake."""
         ego = record.ego
-        v = float(ego.get("speed", np.nan)) * 3.6
+        v = float(ego.get("speed", np.nan)) * 3.6 if ego.get("speed_known", True) else np.nan
+        v_s = f"{v:5.1f}" if np.isfinite(v) else "  -- "  # no ego speed: unknown, not 0
         brake = ego.get("brake")
         if self.lang == "zh":
-            head = f"时间 {record.t:5.2f}s  帧 {record.frame_index}  自车 {v:5.1f} km/h"
+            head = f"时间 {record.t:5.2f}s  帧 {record.frame_index}  自车 {v_s} km/h"
             brk = f"  制动 {brake:.1f} m/s²" if brake else "  未制动"
         else:
-            head = f"t {record.t:5.2f}s  frame {record.frame_index}  ego {v:5.1f} km/h"
+            head = f"t {record.t:5.2f}s  frame {record.frame_index}  ego {v_s} km/h"
             brk = f"  BRAKE {brake:.1f} m/s2" if brake else "  brake off"
         tx = st.text
         hw, bw = tx.width(head), tx.width(brk)
@@ -647,15 +651,18 @@ class VideoSink(Overlay):
     """A runner sink writing an annotated MP4 (see the module doc).
 
     ``fps`` is the camera rate; ``lang`` ``"en"`` or ``"zh"``; ``trail_s`` the
-    trajectory length (s). ``frames_written`` counts frames in the file.
+    trajectory length (s). ``frames_written`` counts frames in the file. ``raw``: the camera
+    frames as rendered, without annotation, at JPEG quality ``RAW_JPEG_QUALITY`` (what
+    ``lookahead watch`` reads back: ``lookahead run --raw-video``).
     The output is checked here (``check_video_path``), before any sink starts,
     so a bad ``path`` fails before the run directory is touched.
     """
 
-    def __init__(self, path: Path, fps: float, lang: str = "en", trail_s: float = 2.0) -> None:
+    def __init__(self, path: Path, fps: float, lang: str = "en", trail_s: float = 2.0, raw: bool = False) -> None:
         if fps <= 0:
             raise ValueError(f"fps: expected > 0, got {fps}")
         super().__init__(lang, trail_s)
+        self.raw = raw
         self.path = Path(path)
         self.fps = float(fps)
         check_video_path(self.path)
@@ -676,10 +683,11 @@ class VideoSink(Overlay):
                 log.warning("%s: frames without an image (rendering off) are not written to the video", self.path)
                 self._warned_no_image = True
             return
-        out = self.annotate(record)
+        out = img.copy() if self.raw else self.annotate(record)  # the writer's thread owns what it gets
         h, w = out.shape[:2]
         if self._writer is None:
-            writer, self.fourcc = open_mp4_writer(self.path, self.fps, (w, h))
+            writer, self.fourcc = open_mp4_writer(self.path, self.fps, (w, h),
+                                                  RAW_JPEG_QUALITY if self.raw else JPEG_QUALITY)
             self._writer = _AsyncWriter(writer)
             self._size = (w, h)
             log.info("%s: writing %dx%d @ %.3g fps (%s)", self.path, w, h, self.fps, self.fourcc)

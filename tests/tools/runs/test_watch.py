@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import sqlite3
@@ -10,14 +11,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from support.clips import render_records
+from system_deps import vtest_avi
 
 from lookahead.perception.calibration import CameraCalibration, load_calibration, write_calibration
 from lookahead.perception.detections import CLASS_ID
-from lookahead.sim.catalogue import resolve_path
-from lookahead.sim.records import RecordCollector
-from lookahead.sim.runner import Runner
-from lookahead.sim.scenario import load_scenario, with_detector
-from lookahead.tools.runs.watch import watch
+from lookahead.tools.runs.watch import WatchStatus, watch
 from lookahead.tools.sinks.rundir import RunDir
 
 FRAMES = 30  # 3 s at the scenario's 10 Hz camera, 640 x 360: the pedestrian from ~44 m to ~11 m
@@ -28,22 +27,15 @@ def clip(tmp_path_factory: pytest.TempPathFactory) -> dict:
     """An MP4 of FRAMES rendered frames of ped_crossing_nearside, the simulator camera's calibration
     file, and each frame's ground truth (pedestrian range, whether it is visible)."""
     d = tmp_path_factory.mktemp("watch_clip")
-    scenario = with_detector(load_scenario(resolve_path("ped_crossing_nearside")), "gt", None)  # gt: fast
-    col = RecordCollector()
-    runner = Runner(scenario, sinks=[col], render=True)
-    try:
-        for _ in range(FRAMES):
-            runner.step()
-    finally:
-        runner.close()
+    records, camera = render_records(FRAMES)
     path = d / "clip.mp4"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), scenario.camera.rate, (640, 360))
-    for rec in col.records:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"mp4v"), 10.0, (640, 360))
+    for rec in records:
         writer.write(cv2.cvtColor(rec.frame.image, cv2.COLOR_RGB2BGR))
     writer.release()
-    cal = write_calibration(CameraCalibration.from_camera(runner.camera), d / "camera.yaml")
-    visible = [bool(np.any(rec.ground_truth.visible_fraction > 0.5)) for rec in col.records]
-    ped_range = [float(rec.ground_truth.range[0]) for rec in col.records]
+    cal = write_calibration(CameraCalibration.from_camera(camera), d / "camera.yaml")
+    visible = [bool(np.any(rec.ground_truth.visible_fraction > 0.5)) for rec in records]
+    ped_range = [float(rec.ground_truth.range[0]) for rec in records]
     return {"video": path, "calibration": cal, "visible": visible, "range": ped_range}
 
 
@@ -59,10 +51,21 @@ def _video_frames(path: Path) -> int:
 def test_watch_rendered_clip_all_outputs(clip: dict, tmp_path: Path, lookahead, capsys) -> None:
     out, db, video = tmp_path / "run", tmp_path / "watch.sqlite", tmp_path / "run" / "annotated.mp4"
     code = lookahead("watch", clip["video"], "--out", out, "--calibration", clip["calibration"],
-                     "--ego-speed", "11.1", "--video", video, "--db", db)
+                     "--ego-speed", "11.1", "--video", video, "--db", db, "--rerun", out / "run.rrd")
     printed = capsys.readouterr()
     assert code == 0, printed.err
     assert f"{FRAMES} frames" in printed.err and "0 dropped" in printed.err
+    assert f"report: {out / 'report.html'}" in printed.err
+
+    # the report of a run without ground truth: what the stack produced, nothing scored
+    metrics = json.loads((out / "metrics.json").read_text())
+    observed = metrics["observed"]
+    assert "detection" not in metrics and "tracking" not in metrics
+    assert observed["frames"] == FRAMES and observed["confirmed_tracks"] >= 1
+    assert observed["detections_per_class"]["pedestrian"] >= FRAMES - 3 and observed["frames_without_ego_speed"] == 0
+    html = (out / "report.html").read_text()
+    assert "observed" in html and "confirmed_tracks" in html
+    assert (out / "run.rrd").stat().st_size > 10_000
 
     run = RunDir(out)
     assert run.run["complete"] is True
@@ -111,21 +114,26 @@ def test_watch_sigint_ends_run_flushed_without_ego_speed(clip: dict, tmp_path: P
     the frames done. Default camera (no calibration) and no ego speed: recorded as such."""
     out = tmp_path / "run"
 
-    def progress(n: int) -> None:
-        if n == 3:
+    def progress(status: WatchStatus) -> None:
+        if status.frames == 3:
             os.kill(os.getpid(), signal.SIGINT)
 
     old = signal.getsignal(signal.SIGINT)
     summary = watch(str(clip["video"]), out, video=out / "annotated.mp4", db=out / "run.sqlite", progress=progress)
     assert signal.getsignal(signal.SIGINT) is old  # the handler is restored
     assert summary["interrupted"] is True and summary["frames"] == 3 and summary["error"] is None
+    assert summary["interrupted_by"] == "SIGINT"
     assert summary["frames_without_ego_speed"] == 3
     run = RunDir(out)
     assert run.run["complete"] is True and len(run.ticks) == 3
     config = run.run["scenario"]
-    assert config["ego_speed_available"] is False and "not meaningful" in config["ego_speed_note"]
-    assert config["calibration_file"] is None and config["camera"].startswith("default: 90 deg")
+    assert config["ego_speed_available"] is False and "unavailable" in config["ego_speed_note"]
+    assert config["calibration_file"] is None and config["camera_from"].startswith("default: 90 deg")
     assert all(t["ego"]["speed_known"] is False for t in run.ticks)
+    tracked = [t["tracks"] for t in run.ticks if t["tracks"]["track_id"]]
+    assert tracked  # ... ranged, with the ground speed unavailable (null), not guessed from speed 0
+    assert all(v is None for tr in tracked for v in tr["ground_vx"])
+    assert all(r is not None and r > 0 for tr in tracked for r in tr["range"])
     with sqlite3.connect(out / "run.sqlite") as conn:
         assert conn.execute("SELECT complete FROM runs").fetchall() == [(1,)]
         assert conn.execute("SELECT COUNT(*) FROM frames").fetchone()[0] == 3
@@ -161,3 +169,25 @@ def test_watch_undistorts_a_distorted_calibration(clip: dict, tmp_path: Path) ->
     run = RunDir(tmp_path / "run")
     assert run.run["complete"] is True and run.run["scenario"]["undistort"] is True and len(run.ticks) == 3
     assert all("undistort" in t for t in run.timings)
+
+
+def test_watch_real_footage_hog_tracks_pedestrians(tmp_path: Path, lookahead, capsys) -> None:
+    """OpenCV's sample clip vtest.avi (real pedestrians, 768 x 576 at 10 fps) through
+    ``watch --detector hog``: several pedestrians, each held by one confirmed track for seconds."""
+    clip = vtest_avi()
+    out = tmp_path / "vtest"
+    code = lookahead("watch", clip, "--out", out, "--detector", "hog", "--max-frames", "60", "--no-report",
+                     "--video", out / "annotated.mp4")
+    assert code == 0, capsys.readouterr().err
+    run = RunDir(out)
+    assert run.run["scenario"]["detector"]["kind"] == "hog" and run.run["scenario"]["detector"]["model"] == "hog"
+    frames_of: dict[int, int] = {}
+    for t in run.ticks:
+        tr = t["tracks"]
+        for tid, state, cls in zip(tr["track_id"], tr["state"], tr["class_id"], strict=True):
+            if state == "confirmed":
+                assert cls == CLASS_ID["pedestrian"]
+                frames_of[tid] = frames_of.get(tid, 0) + 1
+    held = [n for n in frames_of.values() if n >= 20]  # 2 s or more under one id
+    assert len(held) >= 3, frames_of
+    assert _video_frames(out / "annotated.mp4") == 60
