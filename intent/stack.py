@@ -24,6 +24,7 @@ from lookahead.perception.detections import Detections
 from lookahead.perception.detectors.base import Detector, DetectorTruth
 from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
 from lookahead.perception.detectors.onnx_detector import OnnxDetector
+from lookahead.perception.embedder import AppearanceEmbedder
 from lookahead.perception.estimator import Estimates, Estimator, EstimatorConfig
 from lookahead.perception.frame import Frame
 from lookahead.perception.preprocess import PreprocessChain
@@ -73,9 +74,11 @@ class PerceptionStack:
         self, detector: Detector, camera: CameraModel, frame_rate: float, intent_config: IntentConfig,
         tracker_config: TrackerConfig | None = None, estimator_config: EstimatorConfig | None = None,
         alert_config: AlertConfig | None = None, preprocess: PreprocessChain | None = None,
+        embedder: AppearanceEmbedder | None = None,
     ) -> None:
         self.preprocess = preprocess or PreprocessChain()
         self.detector = detector
+        self.embedder = embedder
         self.tracker = Tracker(tracker_config, frame_rate=frame_rate)
         self.estimator = Estimator(camera, estimator_config)
         self.intent_config = intent_config
@@ -121,7 +124,9 @@ class PerceptionStack:
         t0 = time.perf_counter()
         dets = self.detector.detect(image, truth)
         t1 = time.perf_counter()
-        tracks = self.tracker.update(dets)
+        features = self._features(image, dets)
+        te = time.perf_counter()
+        tracks = self.tracker.update(dets, features)
         t2 = time.perf_counter()
         est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
         t3 = time.perf_counter()
@@ -131,9 +136,23 @@ class PerceptionStack:
         assessment = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
         alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
         t4 = time.perf_counter()
-        timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - t1) * 1e3,
+        timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - te) * 1e3,
                        estimate=(t3 - t2) * 1e3, intent=(t4 - t3) * 1e3)
+        if self.embedder is not None:
+            timings["embed"] = (te - t1) * 1e3
         return dets, tracks, est, assessment, alerts
+
+    def _features(self, image: np.ndarray | None, dets: Detections) -> np.ndarray | None:
+        """Appearance features (N, D) of the detections the tracker asks for (NaN rows for the
+        others), or None: no embedder, no image, or nothing asked (most frames)."""
+        if self.embedder is None or image is None:
+            return None
+        need = self.tracker.features_needed(dets)
+        if not need.any():
+            return None
+        features = np.full((len(dets), self.embedder.dim), np.nan, dtype=np.float32)
+        features[need] = self.embedder.embed(image, dets.xyxy[need])
+        return features
 
     def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
         """Whether a CRITICAL alert is on for an in-path track, and the nearest in-path range (m)."""
@@ -189,8 +208,11 @@ def build_stack(
 
         return load_stack(perception.stack.plugin, perception.stack.options, camera, frame_rate, intent=intent,
                           alerts=alerts)
+    embedder = None
+    if perception.appearance.enabled and render:  # features need pixels
+        embedder = AppearanceEmbedder(perception.appearance.model)
     return PerceptionStack(
         detector or build_detector(perception.detector, seed, render), camera, frame_rate, intent,
         perception.tracker_config(), perception.estimator_config(), alert_config=alerts,
-        preprocess=PreprocessChain(perception.preprocess),
+        preprocess=PreprocessChain(perception.preprocess), embedder=embedder,
     )

@@ -158,9 +158,20 @@ class StackSpec(BaseModel):
     options: dict[str, Any] = Field(default_factory=dict, description="keyword options for the factory")
 
 
+class AppearanceSpec(BaseModel):
+    """Appearance features for the tracker's re-identification (``perception.embedder``): an ONNX
+    embedder run on the detections the tracker asks for (``Tracker.features_needed``: lost
+    tracks that could be re-found, galleries due for a refresh), on rendered or real frames only."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    enabled: bool = Field(False, description="run the embedder and re-identify lost tracks by appearance")
+    model: str | None = Field(None, description="ONNX embedder; default models/reid-mobilenetv2.onnx")
+
+
 class PerceptionSpec(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     detector: DetectorSpec = Field(default_factory=DetectorSpec)
+    appearance: AppearanceSpec = Field(default_factory=AppearanceSpec)
     stack: StackSpec | None = Field(
         None, description="a stack plug-in that replaces detector, tracker and estimator (docs/plugins.md); "
         "intent and alerts stay lookahead's",

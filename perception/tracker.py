@@ -15,8 +15,11 @@ Pipeline per frame (``Tracker.update``), one method per step:
    high_score``) against the confirmed tracks left over (IoU only, gated at
    ``second_match_iou``). Low-score boxes are often partly occluded objects; they
    keep tracks alive but never start one, and lost tracks are not revived by them
-   (ByteTrack). ``_apply_matches`` then updates the matched tracks and ``_prune``
-   turns the unmatched ones lost or removes them.
+   (ByteTrack).
+4b. ``_associate_reid`` (re-id stage, only with features and galleries): unmatched
+   high-score detections, and those stage 1 gave to tentative tracks, against the lost
+   tracks with an appearance gallery (see "Re-identification" below). ``_apply_matches`` then updates the matched
+   tracks and ``_prune`` turns the unmatched ones lost or removes them.
 5. ``_birth``: unmatched high detections with ``score >= new_track_score`` start
    tentative tracks. ``_output`` reports the confirmed and coasting ones.
 
@@ -52,6 +55,71 @@ stage-1 cost is ``(1 - w) (1 - IoU) + w * cosine_distance`` against each
 track's moving-average feature, and a *lost* track may also match a detection
 outside the IoU gate when the cosine distance is below ``reid_max_distance``;
 its Kalman filter then restarts at that detection.
+
+Re-identification after occlusion (issue 33; on whenever features are passed,
+``gallery_size`` > 0, independent of ``reid_weight``):
+
+* Gallery: each track keeps the features of its latest ``gallery_size`` (10)
+  confident, unoccluded matches -- detection score >= ``high_score``, overlapping
+  no other detection by more than ``gallery_max_overlap`` IoU (an occluded crop
+  mixes two objects), finite feature, within ``reid_max_distance`` of a feature
+  already stored (if any: a half-hidden object is often boxed without overlapping
+  its occluder's box, but its crop does not look like it) -- in a ring buffer: rows of one
+  preallocated (capacity, gallery_size, D) float32 array plus a (capacity, 3)
+  count / next slot / frame-of-newest table, moved with the other track arrays.
+* Retention: a lost confirmed track with a gallery is kept ``reid_max_lost_s``
+  (3 s; 30 frames at 10 fps) instead of ``max_lost_s`` (1 s). Beyond
+  ``max_lost_s`` it is only a re-id candidate: barred from IoU association (its
+  drifting prediction must not capture another object by overlap alone) and not
+  output, so the output is what it was without re-id.
+* Re-id stage, after stages 1 and 2: the high-score detections still unmatched
+  that have a feature, against the lost tracks with a gallery not matched yet.
+  Cost: the smallest cosine distance to the gallery (plus ``class_switch_cost``
+  for another class with ``per_class``; barred without it), accepted at or below
+  ``reid_max_distance``; motion gate: the squared Mahalanobis distance of the box
+  from the track's Kalman prediction, covariance ``H P H' + R``, at most
+  ``reid_gate`` (chi-square 99 %, 4 dof). The covariance grows with the time lost
+  (centre 1-sigma about 1.1 box sizes after 1 s, 2.9 after 2 s, 5 after 3 s), which is the
+  "generous gate scaled by time lost". A detection inside the gate of the track's
+  *anchor* passes too: the filter as it was after the match that gave the newest
+  gallery feature, predicted on every frame since. An object going behind an
+  occluder is detected shrinking for a few frames (its visible part), which drives
+  the filter's size and its covariance towards zero -- measured on the rendered
+  occlusion scenarios: a cyclist's predicted width fell from 13 px to under 1, a car's
+  from 38 px to about 1, and their full-size reappearances were far outside that
+  gate; the anchor never saw those boxes (a track matched through its anchor only
+  takes the anchor's state before its update). Appearance veto: a pair is refused
+  when the detection's feature is nearer to the gallery of another track left
+  unmatched by the IoU stages (lost, or confirmed and missed) -- it looks like that
+  object. One optimal assignment over all pairs. Take-over: a reappearance first
+  seen half hidden or unrecognised starts a tentative track; when a later detection
+  of that tentative track is re-identified, the lost track takes it and the
+  tentative track is removed -- it was never confirmed nor output, and no id was
+  spent on it. A re-found track
+  keeps its id, age, hits and class votes, becomes confirmed and gets a normal
+  Kalman update: inside the gate the detection agrees with the prediction, and the
+  grown covariance makes the update pull the velocity to the mean motion over the
+  gap (restarting it at zero would be worse for an object that kept walking).
+  ``Tracker.reidentifications`` counts these matches.
+* Feature requests: ``features_needed(detections)`` (mask) / ``wants_features``
+  (bool), called before ``update``, say which detections' features the update
+  would use: re-id candidates (left unmatched by the IoU part of stage 1, which it
+  runs, or matched there to a tentative track; inside the gate of a lost track with
+  a gallery or of its anchor), refreshes (a confirmed track's best IoU detection when its
+  gallery's newest feature is ``gallery_refresh_s`` old or it has none, only if
+  unoccluded; tracks at half that age join a frame that embeds anyway), and, with
+  ``reid_weight > 0``, ambiguous matches (a prediction overlapping two detections
+  above ``match_iou``, or a detection two predictions). Cost trade-off: a caller
+  embedding only these crops runs the embedder on a fraction of frames (the
+  70-frame occlusion test: 8 of 70; refreshes cost about
+  ``tracks / (gallery_refresh_s * fps)`` crops per frame), for galleries that
+  are up to ``gallery_refresh_s`` stale -- appearance changes slowly, and a
+  10-feature gallery then spans about 10 s of views. Embedding every frame works
+  too (the gallery then spans the last second).
+
+Without features nothing of this runs: no gallery exists, ``_prune`` and stage 1
+take their pre-re-id paths, and the tracks are bit-identical to those of a tracker
+without re-id (checked against the previous implementation on random streams).
 
 Kalman state (8 per track): ``[cx, cy, w, h, vcx, vcy, vw, vh]`` -- box centre and size in px, their rates
 in px/frame, constant-velocity model. Unlike SORT's ``[cx, cy, s, r, ...]``
@@ -173,7 +241,38 @@ class TrackerConfig(BaseModel):
         " when features are passed",
     )
     reid_max_distance: float = Field(
-        0.3, description="cosine distance under which a lost track may be recovered by appearance alone (IoU gate not met)"
+        0.3, ge=0, le=2,
+        description="cosine distance under which a lost track may be recovered by appearance: in the re-id stage"
+        " (distance to the nearest feature of its gallery, motion-gated), and with reid_weight > 0 also in stage 1"
+        " outside the IoU gate (distance to its moving-average feature, not motion-gated)",
+    )
+    gallery_size: int = Field(
+        10, ge=0, le=1000,
+        description="appearance features each track keeps (a ring buffer of those of its latest confident,"
+        " unoccluded matches); lost tracks with a gallery are re-identified in a motion-gated re-id stage after"
+        " the IoU stages. 0 = no gallery, no re-id stage. Used only when features are passed to update",
+    )
+    reid_max_lost_s: float = Field(
+        3.0, ge=0,
+        description="a lost confirmed track with a gallery is kept this long (s; never less than max_lost_s) for"
+        " the re-id stage; beyond max_lost_s it takes no part in IoU association and is not output",
+    )
+    reid_gate: float = Field(
+        13.28, gt=0,
+        description="re-id motion gate: squared Mahalanobis distance of the detection box [cx, cy, w, h] from the"
+        " lost track's Kalman prediction (covariance incl. measurement noise; grows with the time lost). 13.28 ="
+        " chi-square 99 % for 4 degrees of freedom",
+    )
+    gallery_max_overlap: float = Field(
+        0.2, ge=0, le=1,
+        description="a feature enters its track's gallery only if its detection scores at least high_score and"
+        " overlaps no other detection of the frame by more than this IoU (an occluded crop mixes two objects)",
+    )
+    gallery_refresh_s: float = Field(
+        1.0, gt=0,
+        description="features_needed / wants_features ask for a confirmed track's detection's feature when its"
+        " gallery's newest feature is this old (s) or it has none; tracks at half that age join a frame that"
+        " embeds anyway, so refreshes bunch into few embedder calls",
     )
     feature_momentum: float = Field(
         0.9, ge=0, lt=1, description="exponential-moving-average momentum of a track's appearance feature"
@@ -450,6 +549,10 @@ _AGE, _TSU, _HITS, _STATE, _ID, _CLASS, _DET, _LIMIT = range(8)
 _NUM_INT = 8
 _TENTATIVE, _CONFIRMED, _LOST = int(TrackState.TENTATIVE), int(TrackState.CONFIRMED), int(TrackState.LOST)
 _NO_ROWS = np.zeros(0, dtype=np.intp)
+# Gallery bookkeeping, the columns of ``Tracker._gal_meta`` (capacity, 3): features stored,
+# next ring-buffer slot, ``frame_count`` of the newest feature.
+_GCOUNT, _GHEAD, _GLAST = range(3)
+_NEVER = -(2**40)  # ``_GLAST`` of an empty gallery
 
 
 @dataclass(slots=True)
@@ -506,6 +609,8 @@ class Tracker:
         wc = wv if cfg.std_weight_accel is None else cfg.std_weight_accel / self.frame_rate**2
         self._q_weights = np.array([wp] * 4 + [wc, wc, wv, wv])
         self._p_weights = np.array([2.0 * wp] * 4 + [cfg.init_velocity_std] * 4)
+        self.reid_max_lost_frames = max(self.max_lost_frames, round(cfg.reid_max_lost_s * self.frame_rate))
+        self.gallery_refresh_frames = max(1, round(cfg.gallery_refresh_s * self.frame_rate))
         self._newborn = np.zeros(_NUM_INT, dtype=np.int64)
         self._newborn[[_HITS, _STATE, _ID, _LIMIT]] = 1, _TENTATIVE, -1, cfg.tentative_max_lost_frames
         self.reset()
@@ -514,12 +619,20 @@ class Tracker:
         """Forget all tracks, restart ids at 1 and zero the counters."""
         self._n = 0
         self._feat: np.ndarray | None = None
+        self._gal: np.ndarray | None = None  # (capacity, gallery_size, D) float32 ring buffers, once features came
+        self._gal_meta = np.zeros((0, 3), dtype=np.int64)  # (capacity, 3): _GCOUNT, _GHEAD, _GLAST
+        # Anchors (with the galleries): each track's Kalman state and covariance right after the match that
+        # gave its newest gallery feature, predicted on every frame since -- the motion model run from the
+        # last confident view, for the re-id gate (``_reid_gate``).
+        self._anc_x = np.zeros((0, 8))
+        self._anc_P = np.zeros((0, 8, 8))
         self._votes = np.zeros((0, 0))  # (capacity, classes + 1): column class_id + 1 (see _class_votes)
         self._alloc(16)
         self._next_id = 1
         self.frame_count = 0
         self.dropped_detections = 0
         self.merged_duplicates = 0
+        self.reidentifications = 0
 
     @property
     def num_tracks(self) -> int:
@@ -541,12 +654,22 @@ class Tracker:
         votes = np.zeros((capacity, self._votes.shape[1]))
         votes[:n] = self._votes[:n]
         self._x, self._P, self._score, self._ints, self._feat, self._votes = x, P, score, ints, feat, votes
+        if self._gal is not None:
+            gal = np.zeros((capacity, *self._gal.shape[1:]), dtype=np.float32)
+            meta = np.zeros((capacity, 3), dtype=np.int64)
+            gal[:n], meta[:n] = self._gal[:n], self._gal_meta[:n]
+            anc_x, anc_P = np.zeros((capacity, 8)), np.zeros((capacity, 8, 8))
+            anc_x[:n], anc_P[:n] = self._anc_x[:n], self._anc_P[:n]
+            self._gal, self._gal_meta, self._anc_x, self._anc_P = gal, meta, anc_x, anc_P
         self._track_id = ints[:, _ID]
 
     def _keep(self, keep: np.ndarray) -> None:
         """Remove the live rows where ``keep`` (n,) is False, preserving the order of the others."""
         n, m = self._n, int(np.count_nonzero(keep))
-        for a in (self._x, self._P, self._score, self._ints, self._votes) + (() if self._feat is None else (self._feat,)):
+        arrays = (self._x, self._P, self._score, self._ints, self._votes)
+        arrays += () if self._feat is None else (self._feat,)
+        arrays += () if self._gal is None else (self._gal, self._gal_meta, self._anc_x, self._anc_P)
+        for a in arrays:
             a[:m] = a[:n][keep]
         self._n = m
 
@@ -557,6 +680,18 @@ class Tracker:
                 log.warning("feature dimension changed from %d to %d: track features reset", self._feat.shape[1], dim)
             self._feat = np.full((len(self._x), dim), np.nan)
         return self._feat
+
+    def _gallery_of_dim(self, dim: int) -> np.ndarray:
+        """The (capacity, gallery_size, dim) galleries (``_gal_meta`` says which slots hold
+        features), created empty on first use and emptied if ``dim`` changed."""
+        if self._gal is None or self._gal.shape[2] != dim:
+            if self._gal is not None:
+                log.warning("feature dimension changed from %d to %d: galleries reset", self._gal.shape[2], dim)
+            self._gal = np.zeros((len(self._x), self.config.gallery_size, dim), dtype=np.float32)
+            self._gal_meta = np.zeros((len(self._x), 3), dtype=np.int64)
+            self._gal_meta[:, _GLAST] = _NEVER
+            self._anc_x, self._anc_P = np.zeros((len(self._x), 8)), np.zeros((len(self._x), 8, 8))
+        return self._gal
 
     # ------------------------------------------------------------------ input
     def _valid_mask(self, b: np.ndarray, s: np.ndarray) -> np.ndarray | None:
@@ -623,6 +758,113 @@ class Tracker:
         ok |= lost[:, None] & has & (cos <= self.config.reid_max_distance)
         return cost, ok
 
+    # ------------------------------------------------------- feature requests
+    def wants_features(self, detections: Detections) -> bool:
+        """Whether the next ``update(detections, ...)`` would use appearance features
+        (``features_needed`` has a True row); False on most frames, so a caller embeds rarely."""
+        return bool(np.count_nonzero(self.features_needed(detections)))
+
+    def features_needed(self, detections: Detections) -> np.ndarray:
+        """(N,) mask of the detections whose appearance features the next ``update`` would use.
+
+        Call it before ``update`` with the same detections; pass features for at least the
+        True rows (NaN rows, or None when no row is True, for the others). It predicts the
+        tracks on copies (the tracker is unchanged) and marks valid detections scoring at
+        least ``high_score`` that are
+
+        * re-id candidates: left unmatched by (the IoU part of) stage 1, or matched there to a
+          tentative track (a lost track may take that detection over), and inside the motion gate (``reid_gate``, of the prediction or of the
+          anchor, ``_reid_gate``) of a class-compatible lost track with a gallery -- the detections
+          the re-id stage would look at;
+        * refreshes: the best IoU match of a confirmed track whose gallery's newest feature is
+          ``gallery_refresh_s`` old (or which has none), if it overlaps no other detection by
+          more than ``gallery_max_overlap`` (else its feature would not be stored). When any row
+          is marked, tracks at half that age are refreshed too, so refreshes share embedder calls;
+        * ambiguous, with ``reid_weight > 0`` only (appearance takes part in stage 1 only then):
+          the detections overlapping a track's prediction that overlaps two or more detections at
+          association IoU >= ``match_iou``, and those overlapping two or more predictions so. IoU
+          margins do not tell: when two objects meet and part, the wrong pair often has the higher
+          IoU (the constant-velocity prediction carries each track onto the other object).
+
+        Cost: one (tracks x detections) IoU, a batched Kalman predict and, while lost tracks wait,
+        one small Mahalanobis matrix: tens of microseconds. Empty when ``gallery_size`` is 0 and
+        ``reid_weight`` is 0.
+        """
+        cfg = self.config
+        m, n = len(detections), self._n
+        need = np.zeros(m, dtype=bool)
+        if not m or not n or (cfg.gallery_size == 0 and cfg.reid_weight <= 0):
+            return need
+        ints = self._ints[:n]
+        state, tsu = ints[:, _STATE], ints[:, _TSU] + 1  # time since update at the coming update
+        gallery = self._gal is not None  # (only ever created with gallery_size > 0)
+        lost = ((state == _LOST) & (self._gal_meta[:n, _GCOUNT] > 0)).nonzero()[0] if gallery else _NO_ROWS
+        age = np.zeros(n, dtype=np.int64)  # of the newest gallery feature at the coming update
+        if cfg.gallery_size > 0:
+            last = np.where(self._gal_meta[:n, _GCOUNT] > 0, self._gal_meta[:n, _GLAST], _NEVER) if gallery else _NEVER
+            age += self.frame_count + 1 - last
+        due = self.gallery_refresh_frames
+        if cfg.reid_weight <= 0 and not len(lost) and not np.count_nonzero((state == _CONFIRMED) & (age >= due)):
+            return need  # the common, easy frame: decided without touching the detections
+        boxes = np.asarray(detections.xyxy, dtype=np.float64).reshape(-1, 4)
+        scores = np.asarray(detections.score, dtype=np.float64).reshape(-1)
+        valid = self._valid_mask(boxes, scores)
+        with np.errstate(invalid="ignore"):
+            cand = scores >= cfg.high_score
+        if valid is not None:
+            cand &= valid
+        drows = cand.nonzero()[0]
+        if not len(drows):
+            return need
+        b = boxes[drows]
+        meas = _cxcywh(b)
+        x, P = self._x[:n].copy(), self._P[:n].copy()
+        box_predict(x, P, self._q_weights)  # what update's _predict will compute
+        if cfg.min_match_size > 0 or cfg.match_buffer > 0:
+            grow = cfg.min_match_size, cfg.match_buffer
+            gb = grow_boxes(b, *grow)
+            iou = _iou(grow_boxes(x @ _STATE_TO_XYXY, *grow), gb, box_area(gb))
+        else:
+            iou = _iou(x @ _STATE_TO_XYXY, b, meas[:, 2] * meas[:, 3])
+        if gallery:  # tracks kept for re-id only take no part in IoU association
+            iou[tsu > self.max_lost_frames + 1] = 0.0
+        hit = iou >= cfg.match_iou
+        dneed = np.zeros(len(drows), dtype=bool)
+        if len(lost):
+            # Stage 1 as update will run it (IoU part): the detections it leaves unmatched, or gives to
+            # a tentative track (which a lost track may take over), are the re-id stage's candidates.
+            cost, ok = 1.0 - iou, hit
+            if cfg.per_class:
+                cost, ok = self._class_gate(cost, ok, ints[:, _CLASS], np.asarray(detections.class_id)[drows])
+            trk, col = self._assign(cost, ok)
+            free = np.ones(len(drows), dtype=bool)
+            free[col[state.take(trk) != _TENTATIVE]] = False
+            if np.count_nonzero(free):
+                ax, aP = self._anc_x[lost], self._anc_P[lost]  # copies (fancy indexing)
+                box_predict(ax, aP, self._q_weights)
+                gate = self._motion_gate(x[lost], P[lost], meas) | self._motion_gate(ax, aP, meas)
+                if cfg.per_class and (cfg.class_switch_cost is None or cfg.class_switch_cost > cfg.reid_max_distance):
+                    gate &= ints[lost, _CLASS][:, None] == np.asarray(detections.class_id)[drows]
+                dneed |= free & gate.any(axis=0)
+        if cfg.reid_weight > 0:  # ambiguous: a track hitting two detections, or a detection two tracks
+            multi = np.count_nonzero(hit, axis=1) >= 2
+            if np.count_nonzero(multi):
+                dneed |= hit[multi].any(axis=0)
+            dneed |= np.count_nonzero(hit, axis=0) >= 2
+        if cfg.gallery_size > 0:
+            conf = (state == _CONFIRMED) & hit.any(axis=1)
+            if np.count_nonzero(conf):
+                if np.count_nonzero(conf & (age >= due)) or np.count_nonzero(dneed):
+                    refresh = (conf & (age >= (due + 1) // 2)).nonzero()[0]  # this frame embeds: bunch them
+                    best = np.where(hit[refresh], iou[refresh], -1.0).argmax(axis=1)
+                    vb = boxes if valid is None else boxes[valid]
+                    if len(vb) > 1:  # its own box overlaps itself (IoU 1): the runner-up is the other object
+                        ov = _iou(b[best], vb, box_area(vb))
+                        best = best[np.sort(ov, axis=1)[:, -2] <= cfg.gallery_max_overlap]
+                    dneed[best] = True
+        need[drows[dneed]] = True
+        return need
+
     # ---------------------------------------------------------------- update
     def update(self, detections: Detections, features: np.ndarray | None = None) -> Tracks:
         """Advance one frame with this frame's detections; return the tracks to output.
@@ -633,8 +875,9 @@ class Tracker:
 
         Args:
             detections: this frame's detections (invalid rows are dropped and counted).
-            features: optional (N, D) appearance embeddings, one row per detection;
-                used only when ``config.reid_weight > 0``.
+            features: optional (N, D) appearance embeddings, one row per detection (NaN rows:
+                none, e.g. those ``features_needed`` did not ask for); used when
+                ``config.reid_weight > 0`` (stage 1) or ``config.gallery_size > 0`` (galleries, re-id stage).
         """
         cfg = self.config
         self.frame_count += 1
@@ -654,9 +897,13 @@ class Tracker:
         if n:
             iou = self._association_iou(n, d.boxes, meas)
             if len(high):
-                matches, unmatched_high = self._associate_high(iou, d, high, all_high)
+                matches, unmatched_high = self._associate_high(iou, d, high, all_high, self._kept_for_reid(n))
             if len(low):
                 matches = self._associate_low(iou, d, low, matches)
+            if d.feats is not None and self._gal is not None and (
+                len(unmatched_high) or np.count_nonzero(self._ints.take(matches.trk, axis=0)[:, _STATE] == _TENTATIVE)
+            ):
+                matches, unmatched_high = self._associate_reid(n, d, meas, unmatched_high, matches)
         if len(matches.trk):
             self._apply_matches(matches, d, meas)
         if n:
@@ -668,7 +915,8 @@ class Tracker:
         """Step 1: drop invalid detections and fold duplicates into their leaders (both counted)."""
         cfg = self.config
         boxes, scores, classes = detections.xyxy, detections.score, detections.class_id
-        feats = self._clean_features(features, len(boxes)) if cfg.reid_weight > 0 else None
+        use = cfg.reid_weight > 0 or cfg.gallery_size > 0
+        feats = self._clean_features(features, len(boxes)) if use else None
         orig_index = None  # row in ``detections`` of each valid row (None: the same rows)
         if len(boxes):
             valid = self._valid_mask(boxes, scores)
@@ -695,6 +943,8 @@ class Tracker:
         if n:
             x, P = self._x[:n], self._P[:n]
             box_predict(x, P, self._q_weights)
+            if self._gal is not None:
+                box_predict(self._anc_x[:n], self._anc_P[:n], self._q_weights)
             ints = self._ints[:n]
             ints[:, _AGE : _TSU + 1] += 1
             ints[:, _DET] = -1
@@ -714,7 +964,7 @@ class Tracker:
         return _iou(self._x[:n] @ _STATE_TO_XYXY, boxes, meas[:, 2] * meas[:, 3])
 
     def _associate_high(
-        self, iou: np.ndarray, d: _FrameDetections, high: np.ndarray, all_high: bool
+        self, iou: np.ndarray, d: _FrameDetections, high: np.ndarray, all_high: bool, barred: np.ndarray | None = None
     ) -> tuple[_Matches, np.ndarray]:
         """Step 3, stage 1: high-score detections (rows ``high``) against every track; returns the
         matches and the high rows left unmatched.
@@ -722,21 +972,25 @@ class Tracker:
         Cost ``1 - IoU`` gated at ``match_iou``; with appearance (``_appearance``) the
         cosine distance is mixed in and a lost track may be recovered outside the IoU gate,
         within the same optimal assignment (``jumped``: its filter restarts at the detection).
+        Tracks ``barred`` (mask, or None) take no part: those kept for the re-id stage only.
         """
         cfg = self.config
         ints = self._ints[: len(iou)]
         iou1 = iou if all_high else iou.take(high, axis=1)
         ok = iou1 >= cfg.match_iou
         cost = 1.0 - iou1
-        if d.feats is not None:
+        mixed = d.feats is not None and cfg.reid_weight > 0
+        if mixed:
             cost, ok = self._appearance(cost, ok, d.feats.take(high, axis=0), ints[:, _STATE] == _LOST)
         if cfg.per_class:
             cost, ok = self._class_gate(cost, ok, ints[:, _CLASS], d.classes if all_high else d.classes.take(high))
+        if barred is not None:
+            ok[barred] = False
         trk, cols = self._assign(cost, ok)
         det = cols if all_high else high.take(cols)
         # A match below the IoU gate is an appearance re-identification:
         # the motion model was wrong, so the filter restarts at the detection.
-        jumped = iou1[trk, cols] < cfg.match_iou if d.feats is not None else None
+        jumped = iou1[trk, cols] < cfg.match_iou if mixed else None
         if len(cols) == len(high):
             unmatched = _NO_ROWS
         elif len(cols):
@@ -770,6 +1024,165 @@ class Tracker:
             jumped = np.concatenate([jumped, np.zeros(len(rows), dtype=bool)])
         return _Matches(np.concatenate([trk, rest.take(rows)]), np.concatenate([det, low.take(cols)]), jumped)
 
+    def _kept_for_reid(self, n: int) -> np.ndarray | None:
+        """Mask of the tracks lost longer than ``max_lost_s`` -- kept only for the re-id stage,
+        barred from IoU association -- or None if there are none."""
+        if self._gal is None:
+            return None
+        barred = self._ints[:n, _TSU] > self.max_lost_frames + 1  # the tracks _prune would have removed
+        return barred if np.count_nonzero(barred) else None
+
+    def _associate_reid(
+        self, n: int, d: _FrameDetections, meas: np.ndarray, unmatched: np.ndarray, matches: _Matches
+    ) -> tuple[_Matches, np.ndarray]:
+        """Re-id stage: lost tracks with a gallery that the IoU stages left over against the
+        high-score detections with a feature that are unmatched or matched to a *tentative* track;
+        returns ``matches`` updated and the rows still unmatched.
+
+        Cost: the smallest cosine distance between the detection's feature and the track's gallery
+        (plus ``class_switch_cost`` for another class with ``per_class``), accepted at or below
+        ``reid_max_distance``, gated by motion (``_reid_gate``), with ``per_class`` and no
+        ``class_switch_cost`` by class, and by the appearance veto: a pair is refused when the
+        detection's feature is nearer to the gallery of another track not matched by IoU this frame
+        (lost, or confirmed and missed; any distance, no gate) -- it looks like that object, not
+        this one. One optimal assignment over all pairs.
+
+        A lost track that takes a tentative track's detection takes over: the tentative track (a
+        reappearance first seen outside the gate or unrecognised, e.g. half hidden) is dropped
+        before it was ever confirmed or output (``_prune`` removes it), so no id is spent on it.
+
+        Matched tracks get a Kalman update, not a restart: inside the gate the detection is
+        consistent with the prediction, and the covariance grown over the time lost lets the update
+        correct the velocity to the mean motion across the gap. A track gated in only by its anchor
+        (its prediction was spoilt, see ``_reid_gate``) first takes the anchor's state.
+        """
+        cfg = self.config
+        if d.feats.shape[1] != self._gal.shape[2]:
+            return matches, unmatched
+        ints = self._ints[:n]
+        has_gal = self._gal_meta[:n, _GCOUNT] > 0
+        taken = np.zeros(n, dtype=bool)
+        taken[matches.trk] = True
+        rows = ((ints[:, _STATE] == _LOST) & has_gal & ~taken).nonzero()[0]
+        if not len(rows):
+            return matches, unmatched
+        mtrk, mdet = matches.trk, matches.det
+        tent = ints.take(mtrk, axis=0)[:, _STATE] == _TENTATIVE  # their detections may be taken over
+        cols = np.concatenate([unmatched, mdet[tent]])  # candidate detections
+        f = d.feats.take(cols, axis=0)
+        good = np.isfinite(f[:, 0])  # _clean_features makes a bad row all NaN
+        if not np.count_nonzero(good):
+            return matches, unmatched
+        pos = good.nonzero()[0]
+        cols = cols.take(pos)
+        f = f[good]
+        rivals = (has_gal & ~taken & (ints[:, _STATE] != _TENTATIVE)).nonzero()[0]  # rows superset
+        dist = self._gallery_distance(rivals, f)  # (R, U)
+        cost = dist[np.searchsorted(rivals, rows)]
+        ok = cost <= cfg.reid_max_distance
+        if cfg.per_class:
+            cost, ok = self._class_gate(cost, ok, ints[rows, _CLASS], d.classes.take(cols))
+            ok &= cost <= cfg.reid_max_distance
+        if len(rivals) > len(rows) and np.count_nonzero(ok):  # veto: another track's gallery is nearer
+            ok &= dist[np.searchsorted(rivals, rows)] <= dist.min(axis=0)
+        anchored = None
+        if np.count_nonzero(ok):
+            now, anchored = self._reid_gate(rows, meas.take(cols, axis=0))
+            ok &= now | anchored
+            anchored &= ~now
+        r, c = self._assign(cost, ok)
+        if not len(r):
+            return matches, unmatched
+        self.reidentifications += len(r)
+        trk, det = rows[r], cols[c]
+        if anchored is not None and np.count_nonzero(anchored[r, c]):
+            a = trk[anchored[r, c]]
+            self._x[a], self._P[a] = self._anc_x[a], self._anc_P[a]
+        keep = ~np.isin(mdet, det)  # tentative tracks whose detection a lost track takes over
+        if np.count_nonzero(~keep):
+            self._ints[mtrk[~keep], _LIMIT] = -1  # unmatched now: _prune removes them
+        jumped = matches.jumped
+        if jumped is not None:
+            jumped = np.concatenate([jumped[keep], np.zeros(len(r), dtype=bool)])
+        free = ~np.isin(unmatched, det)
+        return _Matches(np.concatenate([matches.trk[keep], trk]), np.concatenate([matches.det[keep], det]),
+                        jumped), unmatched[free]
+
+    def _reid_gate(self, rows: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(L, U) motion gates of the tracks ``rows`` for boxes z (U, 4, cxcywh): inside ``reid_gate`` of
+        the track's prediction, and of its anchor's.
+
+        The anchor is the track's filter as it was after its newest gallery feature's match (a
+        confident, unoccluded view), predicted since. An object going behind an occluder is often
+        detected shrinking for a few frames (only its visible part), which drives the filter's size
+        towards zero and its size rates negative; the prediction then collapses to a point, its
+        covariance (which scales with the box size) to almost nothing, and the object coming out
+        at full size is far outside that gate. The anchor never saw those partial boxes.
+        """
+        now = self._motion_gate(self._x[rows], self._P[rows], z)
+        return now, self._motion_gate(self._anc_x[rows], self._anc_P[rows], z)
+
+    def _pair_distance(self, trk: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """(K,) smallest cosine distance between the gallery of track ``trk[k]`` (non-empty) and unit feature f[k]."""
+        gal = self._gal
+        sim = np.einsum("tkd,td->tk", gal[trk], f.astype(np.float32))
+        sim = np.where(np.arange(gal.shape[1]) < self._gal_meta[trk, _GCOUNT][:, None], sim, -np.inf)
+        return 1.0 - sim.max(axis=1).astype(np.float64)
+
+    def _gallery_distance(self, rows: np.ndarray, f: np.ndarray) -> np.ndarray:
+        """(L, U) smallest cosine distance between the galleries of tracks ``rows`` and unit features f (U, D)."""
+        sim = self._gal[rows] @ f.T.astype(np.float32)  # (L, K, U)
+        stored = np.arange(sim.shape[1]) < self._gal_meta[rows, _GCOUNT][:, None]
+        sim = np.where(stored[:, :, None], sim, -np.inf)
+        return 1.0 - sim.max(axis=1).astype(np.float64)
+
+    def _motion_gate(self, x: np.ndarray, P: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """(L, U) whether boxes z (U, 4, cxcywh) lie within ``reid_gate`` (squared Mahalanobis distance,
+        innovation covariance ``H P H' + R``) of the predicted states x (L, 8), covariances P (L, 8, 8)."""
+        S = P[:, :4, :4].copy()
+        S.reshape(len(S), 16)[:, ::5] += kf_measurement_noise(x, self.config.std_weight_position)
+        y = z[None, :, :] - x[:, None, :4]  # (L, U, 4)
+        d2 = np.einsum("lui,lij,luj->lu", y, np.linalg.inv(S), y)
+        return d2 <= self.config.reid_gate
+
+    def _gallery_add(self, trk: np.ndarray, det: np.ndarray, d: _FrameDetections) -> None:
+        """Push the features of detections ``det`` into the galleries of tracks ``trk`` (each once):
+        only finite features of detections scoring at least ``high_score``, overlapping no other
+        detection by more than ``gallery_max_overlap`` and, when the gallery holds features, within
+        ``reid_max_distance`` of one of them (an object half behind an undetected occluder is boxed
+        whole-looking but its crop is not: such a view must neither enter the gallery nor move the
+        anchor). Sets the anchors (``_reid_gate``) of the tracks whose gallery took a feature."""
+        cfg = self.config
+        f = d.feats.take(det, axis=0)
+        ok = np.isfinite(f[:, 0]) & (d.scores.take(det) >= cfg.high_score)
+        if not np.count_nonzero(ok):
+            return
+        trk, det, f = trk[ok], det[ok], f[ok]
+        if len(d.boxes) > 1:
+            ov = _iou(d.boxes.take(det, axis=0), d.boxes, box_area(d.boxes))
+            ov[np.arange(len(det)), det] = 0.0
+            clear = ov.max(axis=1) <= cfg.gallery_max_overlap
+            trk, f = trk[clear], f[clear]
+            if not len(trk):
+                return
+        gal = self._gallery_of_dim(f.shape[1])
+        meta = self._gal_meta
+        count = meta[trk, _GCOUNT]
+        if np.count_nonzero(count):  # a view unlike the gallery (a partial or mixed crop) is not stored
+            alike = count == 0
+            alike[~alike] = self._pair_distance(trk[~alike], f[~alike]) <= cfg.reid_max_distance
+            if not np.count_nonzero(alike):
+                meta[trk, _GLAST] = self.frame_count  # looked at: the next refresh is due in gallery_refresh_s
+                return
+            meta[trk[~alike], _GLAST] = self.frame_count
+            trk, f = trk[alike], f[alike]
+        slot = meta[trk, _GHEAD]
+        gal[trk, slot] = f
+        meta[trk, _GHEAD] = (slot + 1) % cfg.gallery_size
+        meta[trk, _GCOUNT] = np.minimum(meta[trk, _GCOUNT] + 1, cfg.gallery_size)
+        meta[trk, _GLAST] = self.frame_count
+        self._anc_x[trk], self._anc_P[trk] = self._x[trk], self._P[trk]
+
     def _apply_matches(self, matches: _Matches, d: _FrameDetections, meas: np.ndarray) -> None:
         """Update the matched tracks (rows ``trk``, each once) with their detections ``det``, in pair order."""
         trk, det, jumped = matches
@@ -800,6 +1213,8 @@ class Tracker:
         self._ints[trk] = ints
         if d.feats is not None:
             self._update_features(trk, d.feats[det])
+            if self.config.gallery_size > 0:
+                self._gallery_add(trk, det, d)
 
     def _update_features(self, trk: np.ndarray, f: np.ndarray) -> None:
         """Moving-average the features of tracks ``trk`` with their detections' features f (NaN rows skipped)."""
@@ -887,7 +1302,12 @@ class Tracker:
             return
         state = ints[:, _STATE]
         state[missed & (state == _CONFIRMED)] = _LOST
-        drop = tsu > ints[:, _LIMIT]  # tentative_max_lost_frames or max_lost_frames
+        limit = ints[:, _LIMIT]  # tentative_max_lost_frames or max_lost_frames
+        if self._gal is not None:  # lost tracks with a gallery wait longer, for the re-id stage
+            long = (self._gal_meta[:n, _GCOUNT] > 0) & (state != _TENTATIVE)
+            if np.count_nonzero(long):
+                limit = np.where(long, np.maximum(limit, self.reid_max_lost_frames), limit)
+        drop = tsu > limit
         if np.count_nonzero(drop):
             self._keep(~drop)
 
@@ -915,7 +1335,11 @@ class Tracker:
             self._features_of_dim(f.shape[1])[rows] = np.where(np.isfinite(f).all(axis=1, keepdims=True), f, np.nan)
         elif self._feat is not None:
             self._feat[rows] = np.nan
+        if self._gal is not None:
+            self._gal_meta[rows] = (0, 0, _NEVER)
         self._n = n + k
+        if d.feats is not None and self.config.gallery_size > 0:
+            self._gallery_add(np.arange(n, n + k), new, d)
         if self.config.min_hits <= 1:
             self._ints[rows, _STATE] = _CONFIRMED
             self._ints[rows, _ID] = np.arange(self._next_id, self._next_id + k)

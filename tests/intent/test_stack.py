@@ -105,3 +105,50 @@ def test_the_simulator_reports_refused_settings_as_scenario_errors():
     sc = with_detector(load_scenario(SCENARIOS / "stationary_car.yaml"), "onnx")
     with pytest.raises(ScenarioError, match="onnx needs rendered frames"):
         Runner(sc, render=False)
+
+
+def test_appearance_keeps_the_id_of_an_object_that_was_hidden():
+    """``perception.appearance.enabled``: the stack embeds only the detections the tracker asks for,
+    and a pedestrian hidden for 1.5 s comes back under its old id; without appearance, a new id."""
+    from lookahead.tools.bench.appearance import scene
+
+    image, _ = scene(1, 1)  # a seeded noise image: every crop looks different
+
+    class Scripted:
+        name = "scripted"
+
+        def __init__(self):
+            self.i = 0
+
+        def detect(self, image, truth=None):
+            self.i += 1
+            if 10 <= self.i < 25:  # hidden behind something for 1.5 s
+                return Detections()
+            x = 100.0 + 4.0 * self.i
+            boxes = [[x, 150.0, x + 30.0, 220.0], [500.0, 100.0, 530.0, 170.0]]  # the walker, a bystander
+            return Detections(boxes, [0.9, 0.9], [CLASS_ID["pedestrian"]] * 2)
+
+    ids = {}
+    for on in (False, True):
+        spec = PerceptionSpec.model_validate({"appearance": {"enabled": on}})
+        stack = build_stack(spec, CAMERA, 10.0, detector=Scripted(), render=True)
+        assert (stack.embedder is not None) == on
+        first = last = None
+        embedded = 0
+        for i in range(40):
+            timings: dict[str, float] = {}
+            frame = Frame(tick=i, t=i / 10.0, camera=CAMERA, odometry=EgoOdometry(speed=0.0), image=image, index=i)
+            _, tracks, *_ = stack.process(frame, None, timings)
+            assert ("embed" in timings) == on
+            embedded += on and timings["embed"] > 1.0  # the embedder ran (ms), not just the tracker's question
+            walker = tracks.track_id[(tracks.xyxy[:, 0] < 400) & (tracks.state == TrackState.CONFIRMED)]
+            if len(walker):
+                first = first if first is not None else int(walker[0])
+                last = int(walker[0])
+        ids[on] = (first, last)
+        if on:
+            assert 0 < embedded < 20  # only when asked: refreshes and the return
+    assert ids[True][0] == ids[True][1]  # kept through the 1.5 s gap
+    assert ids[False][0] != ids[False][1]  # without appearance: a new track
+    assert not build_stack(PerceptionSpec.model_validate({"appearance": {"enabled": True}}), CAMERA, 10.0,
+                           detector=Scripted(), render=False).embedder  # no pixels, no embedder

@@ -2,7 +2,8 @@
 
 Runs ``bench sim``, ``bench track``, ``bench detect``, ``bench sinks``, ``bench env``
 (``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 vs 2
-workers), ``bench watch`` (the watch pipeline vs its slowest stage) and the full loop (rendered, gt detector, every stage) on the same
+workers), ``bench watch`` (the watch pipeline vs its slowest stage), ``bench appearance``
+(the tracker with and without appearance re-identification at 30 objects) and the full loop (rendered, gt detector, every stage) on the same
 machine in one run; cases are prefixed with their benchmark's name and all
 ratios are gathered.
 """
@@ -17,6 +18,7 @@ from lookahead.sim.catalogue import SCENARIOS
 from lookahead.sim.records import RecordCollector
 from lookahead.sim.runner import STAGES, Runner
 from lookahead.sim.scenario import load_scenario
+from lookahead.tools.bench.appearance import bench_appearance
 from lookahead.tools.bench.common import bench_sim, case, machine
 from lookahead.tools.bench.detect import bench_detect
 from lookahead.tools.bench.env import bench_env
@@ -50,6 +52,7 @@ def bench_all(repeats: int = 3) -> dict:
         "sweep": bench_sweep(scen / "sweeps" / "aeb_stationary_car.yaml"),
         "loop": bench_loop(scen / "urban_mix.yaml"),
         "watch": bench_watch(scen / "ped_crossing_nearside.yaml", repeats=repeats),
+        "appearance": bench_appearance(objects=30),
     }
     cases, ratios = {}, {}
     for name, part in parts.items():

@@ -31,6 +31,7 @@ from lookahead.tools.scoring.estimation import evaluate_estimation
 from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 from lookahead.tools.scoring.io import RunData, load_run
 from lookahead.tools.scoring.observed import has_ground_truth, observed_section
+from lookahead.tools.scoring.occlusion import run_occlusion
 from lookahead.tools.scoring.timing import load_timings, timing_section
 from lookahead.tools.scoring.tracking import evaluate_tracking
 from lookahead.tools.scoring.truth import TruthJoined
@@ -67,6 +68,7 @@ def compute_sections(run: RunDir | Path) -> dict[str, dict]:
     if has_ground_truth(rd):
         sections = evaluate(load_run(rd))
         sections.update(intent_sections(load_intent_run(rd)))
+        sections["occlusion"] = run_occlusion(rd)  # identity kept through occlusions
     else:  # real video: nothing to score against (``score --truth`` joins a simulated run's)
         load_run(rd)  # every record checked all the same
         sections = {"observed": observed_section(rd)}

@@ -5,7 +5,8 @@
   estimation and timing over all runs' frames together (ids kept apart), so counts
   are sums and rates, AP, IDF1 and medians are recomputed over every frame;
   ``intent_totals`` pools intent, danger, closed loop, aeb (false AEB activations)
-  and expectations from the runs' metrics.
+  and expectations from the runs' metrics; ``occlusion_totals`` (``tools.scoring.occlusion``)
+  sums the occlusion episode counts and recomputes ``kept_rate``.
 * ``sweep_totals`` -- a sweep's (``lookahead sweep``), from the variants' metrics
   alone (O(variants), no run re-read): detection and tracking counts summed with
   precision, recall and MOTA recomputed, estimation sample counts, ``intent_totals``
@@ -28,6 +29,7 @@ import numpy as np
 from lookahead.intent.labels import LABEL_NAMES, Label
 from lookahead.tools.scoring.intent import SCORED_LABELS, rounded
 from lookahead.tools.scoring.io import RunData, concat_runs, load_run
+from lookahead.tools.scoring.occlusion import occlusion_totals
 from lookahead.tools.scoring.run import evaluate
 from lookahead.tools.scoring.timing import load_timings, timing_section
 from lookahead.tools.sinks.rundir import RunDir, as_rundir
@@ -63,6 +65,7 @@ def suite_totals(runs: Sequence[RunFrames | RunDir | Path], per_run: Sequence[di
     """A suite's ``totals``: ``score_suite`` of the runs, then ``intent_totals`` of their metrics."""
     totals = score_suite(runs)
     totals.update(intent_totals(per_run))
+    totals["occlusion"] = occlusion_totals(per_run)  # counts summed, kept_rate recomputed
     return totals
 
 
@@ -170,5 +173,6 @@ def sweep_totals(per_run: Sequence[dict], mean_of: Sequence[str] = ()) -> dict:
     out = {"detection": {"precision": det.pop("precision"), "recall": det.pop("recall"), **det},
            "tracking": {"mota": trk.pop("mota"), **trk}, "estimation": est}
     out.update(intent_totals(per_run))
+    out["occlusion"] = occlusion_totals(per_run)
     out["mean_over_variants"] = means
     return out
