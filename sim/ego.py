@@ -10,32 +10,15 @@ set; ``brake_command`` (m/s^2, >= 0) overrides both; the AEB sets it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 from highway_env.vehicle.behavior import IDMVehicle
 from highway_env.vehicle.kinematics import Vehicle
 
+from lookahead.sim.collision import Collision  # noqa: F401 (re-exported)
 from lookahead.sim.scenario import EgoSpec
 
 CRUISE_GAIN = 0.6  # 1/s, speed error -> acceleration
 ACCEL_LIMITS = (-8.0, 3.0)  # m/s^2, controller output range (without AEB)
-
-
-@dataclass
-class Collision:
-    """The ego hit something: when, what, and how hard (m/s)."""
-
-    t: float
-    tick: int
-    actor_id: int
-    name: str
-    cls: str
-    ego_speed: float
-    relative_speed: float
-
-    def to_dict(self) -> dict:
-        return {k: (round(v, 4) if isinstance(v, float) else v) for k, v in self.__dict__.items()}
 
 
 class EgoVehicle(IDMVehicle):

@@ -13,6 +13,7 @@ the same code that labels predictions.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,7 +22,10 @@ from lookahead.intent.labels import NEVER, Kinematics, assess
 from lookahead.perception.camera import CameraModel, truncation
 from lookahead.perception.detections import CLASS_ID
 from lookahead.perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
-from lookahead.sim.world import World, ego_frame
+from lookahead.sim.layout import ego_frame
+
+if TYPE_CHECKING:
+    from lookahead.sim.world import World
 
 GT_MAX_RANGE = 200.0  # m; actors farther than this (or > 10 m behind) are left out
 OBSTACLE_CLASS_ID = -1  # static obstacles are not a detection class

@@ -1,7 +1,8 @@
 """``RoadLayout``: what the renderer draws of the road, in the world frame.
 
 World frame: right-handed, z up, x along the main road, y to the left (m).
-Built by ``sim.road`` from the highway-env network; read by ``sim.renderer``.
+Built by ``sim.road`` from the highway-env network; read by ``sim.renderer``. Also
+``ego_frame``, the world -> ego frame transform (light: no simulator import).
 """
 
 from __future__ import annotations
@@ -79,3 +80,12 @@ class RoadLayout:
         rects = list(self.asphalt) + list(self.sidewalks) + list(self.structure_zones)
         a = np.array([[r.x0, r.y0, r.x1, r.y1] for r in rects])
         return np.array([a[:, 0].min(), a[:, 1].min(), a[:, 2].max(), a[:, 3].max()])
+
+
+def ego_frame(
+    origin: np.ndarray, yaw: float, xy: np.ndarray
+) -> np.ndarray:
+    """World xy (N, 2) -> ego-frame xy (N, 2) for an ego frame at ``origin`` with ``yaw``."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    d = np.asarray(xy, dtype=np.float64).reshape(-1, 2) - origin
+    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)

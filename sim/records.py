@@ -11,7 +11,7 @@ import numpy as np
 from lookahead.intent.labels import NEVER
 from lookahead.perception.detections import Detections
 from lookahead.perception.frame import Frame
-from lookahead.sim.ego import Collision
+from lookahead.sim.collision import Collision
 from lookahead.sim.groundtruth import GroundTruth
 
 

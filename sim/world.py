@@ -17,6 +17,7 @@ from highway_env.vehicle.behavior import IDMVehicle
 from lookahead.perception.frame import EgoOdometry
 from lookahead.sim.actors import Identity, ScriptedActor, wrap
 from lookahead.sim.ego import Collision, EgoVehicle
+from lookahead.sim.layout import ego_frame  # noqa: F401 (re-exported)
 from lookahead.sim.road import MAIN_FROM, MAIN_TO, build_road
 from lookahead.sim.scenario import Scenario, TriggerSpec
 from lookahead.sim.shapes import make_shape
@@ -37,15 +38,6 @@ class AgentStates:
     gait_phase: np.ndarray  # (N,) rad
     length: np.ndarray  # (N,) m, collision footprint
     width: np.ndarray  # (N,) m
-
-
-def ego_frame(
-    origin: np.ndarray, yaw: float, xy: np.ndarray
-) -> np.ndarray:
-    """World xy (N, 2) -> ego-frame xy (N, 2) for an ego frame at ``origin`` with ``yaw``."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    d = np.asarray(xy, dtype=np.float64).reshape(-1, 2) - origin
-    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
 
 
 def nearest_x_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:

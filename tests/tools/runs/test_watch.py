@@ -191,3 +191,16 @@ def test_watch_real_footage_hog_tracks_pedestrians(tmp_path: Path, lookahead, ca
     held = [n for n in frames_of.values() if n >= 20]  # 2 s or more under one id
     assert len(held) >= 3, frames_of
     assert _video_frames(out / "annotated.mp4") == 60
+
+
+def test_watch_and_the_run_files_load_no_simulator() -> None:
+    """Real video needs no simulator: watch, the run-directory writer and the scorers import
+    neither highway-env, PyBullet nor matplotlib (start-up, and a one-line refusal, stay light;
+    gymnasium comes with ``import lookahead.sim``, which registers the envs)."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nimport lookahead.tools.runs.watch, lookahead.tools.sinks.rundir, lookahead.tools.scoring.run\n"
+            "print(','.join(m for m in ('highway_env', 'pybullet', 'matplotlib') if m in sys.modules))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == ""
