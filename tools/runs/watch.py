@@ -24,7 +24,9 @@ handed, as a ``TickRecord`` shaped as the runner's with empty ground truth, to t
 * **Run record.** The sinks take a "scenario" (name, seed, ``model_dump``): a watch passes a
   ``WatchConfig`` (source, calibration used, detector, ego speed), recorded where a scenario
   run records its scenario (``run.json`` ``scenario``, the store's ``runs.scenario``). Such a
-  run directory has no ground truth, so it cannot be scored or replayed.
+  run directory has no ground truth: ``lookahead score`` summarises what the stack produced
+  (``tools.scoring.observed``), or, for a simulated run's raw video, scores it against that
+  run's ground truth (``score --truth``, ``tools.scoring.truth``).
 * **Live configuration.** ``config`` (``--config``) is a YAML file of the thresholds that are
   safe to change between frames (``intent.live_config``: detector score and NMS IoU thresholds,
   intent overrides -- risk zones, distance and TTC thresholds, behaviours -- and the alerts'
