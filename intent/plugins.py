@@ -35,7 +35,7 @@ import numpy as np
 
 from lookahead.intent.alerts import AlertConfig, AlertManager
 from lookahead.intent.config import IntentConfig
-from lookahead.intent.labels import Kinematics, assess
+from lookahead.intent.labels import Kinematics
 from lookahead.intent.stack import PerceptionStack
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.detections import CLASSES, Detections
@@ -45,8 +45,8 @@ from lookahead.perception.frame import Frame
 from lookahead.perception.plugins import (
     STACK_GROUP,
     PluginError,
+    call_plugin,
     check_detections,
-    describe_exception,
     load_plugin,
     resolve,
 )
@@ -146,17 +146,10 @@ class PluginStack(PerceptionStack):
         """The plug-in on one frame, then intent and alerts; stage times (ms) into ``timings``
         (the plug-in's time is ``detect``; ``track`` and ``estimate`` are 0)."""
         t0 = time.perf_counter()
-        try:
-            out = self._process(frame, truth) if self._truth else self._process(frame)
-        except PluginError:
-            raise
-        except Exception as e:
-            raise PluginError(f"{self._where} raised {describe_exception(e)}") from e
+        out = call_plugin(self._where, self._process, frame, *((truth,) if self._truth else ()))
         t1 = time.perf_counter()
         dets, tracks, est, kin = self._checked(out, frame)
-        odo = frame.odometry
-        assessment = assess(kin, self.intent_config, odo.speed, odo.yaw_rate, odo.accel)
-        alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
+        assessment, alerts = self._intent(frame, tracks, est, kin)
         t2 = time.perf_counter()
         timings.update(preprocess=0.0, detect=(t1 - t0) * 1e3, track=0.0, estimate=0.0, intent=(t2 - t1) * 1e3)
         return dets, tracks, est, assessment, alerts

@@ -131,16 +131,21 @@ class PerceptionStack:
         est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
         t3 = time.perf_counter()
         kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
-        odo = frame.odometry
-        ego_speed = odo.speed if getattr(odo, "speed_known", True) else float("nan")  # NaN: unknown, not 0
-        assessment = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
-        alerts = self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
+        assessment, alerts = self._intent(frame, tracks, est, kin)
         t4 = time.perf_counter()
         timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - te) * 1e3,
                        estimate=(t3 - t2) * 1e3, intent=(t4 - t3) * 1e3)
         if self.embedder is not None:
             timings["embed"] = (te - t1) * 1e3
         return dets, tracks, est, assessment, alerts
+
+    def _intent(self, frame: Frame, tracks: Tracks, est: Estimates, kin: Kinematics) -> tuple[Assessment, list[Alert]]:
+        """Intent and alerts of one frame's tracks; a frame without ego speed is assessed with a NaN
+        ego speed (unknown, not 0: ``intent.labels``, "Without ego speed")."""
+        odo = frame.odometry
+        ego_speed = odo.speed if getattr(odo, "speed_known", True) else float("nan")
+        assessment = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
+        return assessment, self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
 
     def _features(self, image: np.ndarray | None, dets: Detections) -> np.ndarray | None:
         """Appearance features (N, D) of the detections the tracker asks for (NaN rows for the

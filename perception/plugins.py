@@ -69,6 +69,17 @@ def describe_exception(e: BaseException) -> str:
     return f"{type(e).__name__}: {msg}" if msg else type(e).__name__
 
 
+def call_plugin(where: str, fn: Callable[..., Any], *args: Any) -> Any:
+    """``fn(*args)``, a plug-in's method; any exception it raises becomes one ``PluginError`` line
+    ``<where> raised <type>: <message>`` (the exception kept as its cause)."""
+    try:
+        return fn(*args)
+    except PluginError:
+        raise
+    except Exception as e:
+        raise PluginError(f"{where} raised {describe_exception(e)}") from e
+
+
 def is_reference(ref: str) -> bool:
     """Whether ``ref`` is a ``module:factory`` reference (rather than an entry-point name)."""
     return ":" in ref
@@ -221,12 +232,7 @@ class PluginDetector:
         self._where = f"detector plug-in {ref!r}: detect"
 
     def detect(self, image: np.ndarray | None, truth: DetectorTruth | None = None) -> Detections:
-        try:
-            out = self._detect(image, truth) if self._truth else self._detect(image)
-        except PluginError:
-            raise
-        except Exception as e:
-            raise PluginError(f"{self._where} raised {describe_exception(e)}") from e
+        out = call_plugin(self._where, self._detect, image, *((truth,) if self._truth else ()))
         return check_detections(out, self._where)
 
     def close(self) -> None:

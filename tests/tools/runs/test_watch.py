@@ -12,6 +12,7 @@ import cv2
 import numpy as np
 import pytest
 from support.clips import render_records
+from support.video import count_frames
 from system_deps import vtest_avi
 
 from lookahead.perception.calibration import CameraCalibration, load_calibration, write_calibration
@@ -39,13 +40,7 @@ def clip(tmp_path_factory: pytest.TempPathFactory) -> dict:
     return {"video": path, "calibration": cal, "visible": visible, "range": ped_range}
 
 
-def _video_frames(path: Path) -> int:
-    cap = cv2.VideoCapture(str(path))
-    n = 0
-    while cap.read()[0]:
-        n += 1
-    cap.release()
-    return n
+
 
 
 def test_watch_rendered_clip_all_outputs(clip: dict, tmp_path: Path, lookahead, capsys) -> None:
@@ -106,7 +101,7 @@ def test_watch_rendered_clip_all_outputs(clip: dict, tmp_path: Path, lookahead, 
         assert conn.execute("SELECT COUNT(*) FROM ground_truth").fetchone()[0] == 0
         assert conn.execute("SELECT COUNT(DISTINCT frame) FROM tracks WHERE cls = 'pedestrian'").fetchone()[0] \
             >= 0.9 * len(visible[2:])
-    assert _video_frames(video) == FRAMES
+    assert count_frames(video) == FRAMES
 
 
 def test_watch_sigint_ends_run_flushed_without_ego_speed(clip: dict, tmp_path: Path) -> None:
@@ -137,7 +132,7 @@ def test_watch_sigint_ends_run_flushed_without_ego_speed(clip: dict, tmp_path: P
     with sqlite3.connect(out / "run.sqlite") as conn:
         assert conn.execute("SELECT complete FROM runs").fetchall() == [(1,)]
         assert conn.execute("SELECT COUNT(*) FROM frames").fetchone()[0] == 3
-    assert _video_frames(out / "annotated.mp4") == 3
+    assert count_frames(out / "annotated.mp4") == 3
 
 
 def test_watch_missing_source_one_line(tmp_path: Path, lookahead, capsys) -> None:
@@ -190,7 +185,7 @@ def test_watch_real_footage_hog_tracks_pedestrians(tmp_path: Path, lookahead, ca
                 frames_of[tid] = frames_of.get(tid, 0) + 1
     held = [n for n in frames_of.values() if n >= 20]  # 2 s or more under one id
     assert len(held) >= 3, frames_of
-    assert _video_frames(out / "annotated.mp4") == 60
+    assert count_frames(out / "annotated.mp4") == 60
 
 
 def test_watch_and_the_run_files_load_no_simulator() -> None:

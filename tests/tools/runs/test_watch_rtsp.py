@@ -11,9 +11,9 @@ import threading
 import time
 from pathlib import Path
 
-import cv2
 import pytest
 from support.rtsp_server import CHECK_ARGS, NEEDS, RtspServer, frame_number, write_numbered_frames
+from support.video import iter_frames
 from system_deps import require_system_python
 
 from lookahead.perception.sources import ReconnectPolicy
@@ -39,15 +39,7 @@ def frames_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def video_numbers(path: Path) -> list[int]:
-    cap = cv2.VideoCapture(str(path))
-    numbers = []
-    while True:
-        ok, image = cap.read()
-        if not ok:
-            break
-        numbers.append(frame_number(image))
-    cap.release()
-    return numbers
+    return [frame_number(image) for image in iter_frames(path)]
 
 
 def increasing(xs: list[int]) -> bool:

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import cv2
 import pytest
+from support.video import read_frames
 
 from lookahead.tools.sinks.video import QUEUE_FRAMES
 
@@ -72,17 +73,7 @@ def committed_frames(db: Path) -> int:
         return 0
 
 
-def read_video(path: Path) -> list:
-    cap = cv2.VideoCapture(str(path))
-    assert cap.isOpened(), f"OpenCV cannot open {path} ({path.stat().st_size} bytes)"
-    frames = []
-    while True:
-        ok, img = cap.read()
-        if not ok:
-            break
-        frames.append(img)
-    cap.release()
-    return frames
+
 
 
 @pytest.mark.skipif(not hasattr(os, "fork") or not hasattr(signal, "SIGKILL"), reason="needs fork and SIGKILL")
@@ -130,7 +121,7 @@ def test_sigkilled_rendered_run_keeps_a_playable_video_and_all_but_one_frame_in_
             conn.close()
         s = len(stored)
         assert stored == list(range(s)) and s >= frames and n_timings == s  # whole frames, in order
-        video = read_video(run_dir / "annotated.mp4")
+        video = read_frames(run_dir / "annotated.mp4")
         v = len(video)
         assert all(f.shape == (360, 640, 3) for f in video)
         assert v <= s + 2, f"the store lost more than one finished frame: {s} frames, video {v}"
@@ -160,7 +151,7 @@ def test_a_truncated_video_reads_up_to_its_last_whole_frame(tmp_path):
         part = tmp_path / f"cut{cut}.mp4"
         part.write_bytes(data[:cut])
         whole = sum(e <= cut for e in ends[1:])
-        frames = read_video(part) if whole else []
+        frames = read_frames(part) if whole else []
         # a frame cut short may still decode (a JPEG missing its last bytes): never one less
         assert len(frames) in (whole, whole + 1), cut
         assert [round(float(f.mean()) / 20) for f in frames[:whole]] == list(range(whole))  # in order

@@ -9,6 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from support.video import read_frames
 
 from lookahead.intent.alerts import Alert
 from lookahead.intent.labels import Risk, risk_colour
@@ -45,17 +46,7 @@ def rendered(tmp_path_factory):
     return sc, path, sink, col.records, summary
 
 
-def read_frames(path: Path) -> list[np.ndarray]:
-    cap = cv2.VideoCapture(str(path))
-    assert cap.isOpened(), f"OpenCV cannot open {path}"
-    frames = []
-    while True:
-        ok, img = cap.read()
-        if not ok:
-            break
-        frames.append(img)
-    cap.release()
-    return frames
+
 
 
 def test_mp4_reads_back_with_every_frame_at_the_camera_size(rendered):
