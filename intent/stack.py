@@ -57,8 +57,10 @@ def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detect
     if spec.kind == "onnx":
         if not render:
             raise SettingsError("perception.detector.kind: onnx needs rendered frames, and rendering is off")
+        from lookahead.perception.score_calibration import calibration_for
+
         return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows,
-                            layout=spec.layout)
+                            layout=spec.layout, calibration=calibration_for(spec.model, spec.calibration))
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
 
 

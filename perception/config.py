@@ -96,8 +96,13 @@ class DetectorSpec(BaseModel):
         "(plugin, options; docs/plugins.md)",
     )
     model: str | None = Field(None, description="onnx model file; default models/lookahead-det.onnx")
-    conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score")
+    conf: float = Field(0.25, gt=0.0, lt=1.0, description="onnx: minimum detection score (calibrated, see calibration)")
     iou: float = Field(0.45, gt=0.0, le=1.0, description="onnx: per-class NMS IoU threshold")
+    calibration: str | None = Field(
+        None,
+        description="onnx: score calibration file (lookahead calibrate-scores); default: <model>.scores.json beside "
+        "the model when there is one (the shipped model needs none: it sets the scale); 'none': raw scores",
+    )
     layout: Literal["auto", "yolov5", "yolov8", "yolox", "end2end"] = Field(
         "auto",
         description="onnx: output layout. yolov5 [1, N, 5+C] (also YOLOv7, decoded YOLOX); yolov8 [1, 4+C, N]; "

@@ -125,6 +125,7 @@ USER_ERRORS: tuple[tuple[str, str], ...] = (
     ("lookahead.perception.detectors.onnx_detector", "ModelError"),
     ("lookahead.perception.calibration", "CalibrationError"),
     ("lookahead.perception.ego_speed", "EgoSpeedError"),
+    ("lookahead.perception.score_calibration", "ScoreCalibrationError"),
     ("lookahead.perception.plugins", "PluginError"),
     ("lookahead.perception.sources", "SourceError"),
     ("lookahead.tools.detector.arch", "ArchitectureError"),
@@ -982,6 +983,35 @@ def export_embedder(
     console.print(f"{path}: {path.stat().st_size / 1e6:.2f} MB", highlight=False)
 
 
+@app.command("calibrate-scores")
+@user_errors
+def calibrate_scores_cmd(
+    model: Annotated[Path, typer.Argument(help="ONNX detector to calibrate")],
+    suite: Annotated[Path, typer.Option(help="scenarios to measure it on (rendered)")] = Path(
+        "scenarios/suites/smoke.yaml"),
+    out: Annotated[Path | None, typer.Option("--out", help="calibration file (default: <model>.scores.json beside it)")] = None,
+    layout: Annotated[str, typer.Option(help="onnx output layout: auto | yolov5 | yolov8 | yolox | end2end")] = "auto",
+) -> None:
+    """Measure a detector's score scale on simulated frames; store the calibration beside the model."""
+    from lookahead.perception.detectors.onnx_detector import OnnxDetector
+    from lookahead.perception.score_calibration import sidecar_path
+    from lookahead.tools.runs.inputs import load_suite
+
+    OnnxDetector(model, layout=layout)  # a missing, broken or hostile model: one line, before the simulator loads
+    _, paths = load_suite(suite)
+    target = out if out is not None else sidecar_path(model)
+    from lookahead.tools.detector.calibrate_scores import calibrate_scores
+
+    try:
+        cal = calibrate_scores(model, paths, source=str(suite), layout=layout,
+                               progress=lambda line: console.print(line, highlight=False))
+    except ValueError as exc:
+        fail(str(exc))
+    cal.write(target)
+    typer.echo(f"{model}: true positives' {cal.percentile:g}th-percentile score {cal.measured:.3f} "
+               f"({cal.true_positives} over {cal.frames} frames) -> {cal.reference:g}; wrote {target}")
+
+
 @app.command("train-detector")
 @user_errors
 def train_detector(
@@ -1155,6 +1185,34 @@ def track(
     typer.echo(f"frame rate: {rate:g} fps ({origin})")
     typer.echo(f"wrote {out}: {summary['track_rows']} rows, {summary['tracks']} tracks over "
                f"{summary['frames']} frames ({summary['dropped_detections']} invalid detections dropped)")
+
+
+@app.command("mot-noise")
+def mot_noise(
+    gt: Annotated[Path, typer.Argument(help="MOTChallenge gt.txt (its sequence's seqinfo.ini beside or above it)")],
+    out: Annotated[Path, typer.Option("--out", help="det.txt to write")],
+    level: Annotated[str, typer.Option(help="noise level: low | high")] = "low",
+    seed: Annotated[int, typer.Option(help="random seed of the noise")] = 0,
+) -> None:
+    """Detections of another kind: a sequence's ground truth through the simulated detector's noise."""
+    from lookahead.perception.mot import read_mot, write_mot
+    from lookahead.tools.scoring.mot_eval import find_seqinfo, read_seqinfo
+    from lookahead.tools.scoring.mot_noise import MOT_NOISE_LEVELS, noisy_detections
+
+    if level not in MOT_NOISE_LEVELS:
+        fail(f"--level {level!r}: choose one of {', '.join(MOT_NOISE_LEVELS)}")
+    try:
+        ini = find_seqinfo(gt)
+        info = read_seqinfo(ini) if ini is not None else None
+        if info is None or None in (info.width, info.height):
+            fail(f"{gt}: no seqinfo.ini with imWidth and imHeight beside or above it (the image size is needed)")
+        truth = read_mot(gt)
+        n = max(info.length or 0, truth.num_frames)
+        dets = noisy_detections(truth, info.width, info.height, n, level, seed)
+        write_mot(out, dets)
+    except (OSError, ValueError) as exc:
+        fail(describe(exc))
+    typer.echo(f"wrote {out}: {len(dets)} detections over {n} frames (noise level {level}, seed {seed})")
 
 
 @app.command("eval-mot")

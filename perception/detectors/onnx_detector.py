@@ -75,6 +75,7 @@ from lookahead.perception.geometry import clip_boxes
 from lookahead.perception.letterbox import letterbox, padded_size, unletterbox_boxes
 from lookahead.perception.nms import nms
 from lookahead.perception.safe_yaml import load_yaml
+from lookahead.perception.score_calibration import ScoreCalibration
 
 log = logging.getLogger(__name__)
 
@@ -277,6 +278,8 @@ class OnnxDetector:
             well, magnified (``perception.detectors.windows``); empty: the whole frame only.
         layout: the output layout (``LAYOUTS``): ``"auto"`` (metadata, else shape; see the module
             docstring), ``"yolov5"``, ``"yolov8"``, ``"yolox"`` (raw, undecoded) or ``"end2end"``.
+        calibration: the model's score calibration (``perception.score_calibration``), or None:
+            every score returned is calibrated, and ``conf_threshold`` is on the calibrated scale.
 
     Attributes:
         session: the ``onnxruntime.InferenceSession`` (time ``session.run`` alone via ``infer``).
@@ -302,6 +305,7 @@ class OnnxDetector:
         providers: Sequence[str] | None = None,
         windows: Sequence[Sequence[float]] = (),
         layout: str = "auto",
+        calibration: ScoreCalibration | None = None,
     ) -> None:
         import onnxruntime as ort  # heavy; imported only when a model is loaded
 
@@ -310,6 +314,7 @@ class OnnxDetector:
         self.name = f"onnx:{self.model_path.stem}"
         self.conf_threshold = float(conf_threshold)
         self.iou_threshold = float(iou_threshold)
+        self.calibration = calibration
         self.max_det = int(max_det)
         self.dropped_unknown = 0
         self.last_timing_ms: dict[str, float] = {}
@@ -628,18 +633,19 @@ class OnnxDetector:
         if not self._fits(raw.shape, hw):
             self._resolve_layout(tuple(raw.shape), hw)  # raises when the run-time shape fits no layout
         pred = np.asarray(raw[0], dtype=np.float32)
+        conf = self._raw_conf()
         if self.layout == _V8:
             # [4+C, N] as it comes: best score per column over contiguous rows, then the
             # class argmax only for the few columns above the threshold
             cls_scores = pred[4:]
-            keep = np.flatnonzero(cls_scores.max(axis=0) > self.conf_threshold)
+            keep = np.flatnonzero(cls_scores.max(axis=0) > conf)
             kept = cls_scores[:, keep]
             cls = kept.argmax(axis=0)
             score = kept[cls, np.arange(len(keep))]
             xyxy = _xyxy(pred[:4, keep].T)
         elif self.layout == _E2E:
             # x1, y1, x2, y2, score, class id: already one box per object
-            keep = np.flatnonzero(pred[:, 4] > self.conf_threshold)
+            keep = np.flatnonzero(pred[:, 4] > conf)
             score, cls_f = pred[keep, 4], pred[keep, 5]
             top = self.num_classes if self.num_classes is not None else np.iinfo(np.int32).max
             valid = (cls_f > -0.5) & (cls_f < top - 0.5)  # NaN: False
@@ -654,7 +660,7 @@ class OnnxDetector:
             cls_scores = pred[:, 5:] * pred[:, 4:5]
             cls = cls_scores.argmax(axis=1)
             score = np.take_along_axis(cls_scores, cls[:, None], axis=1)[:, 0]
-            keep = np.flatnonzero(score > self.conf_threshold)
+            keep = np.flatnonzero(score > conf)
             score, cls, boxes = score[keep], cls[keep], pred[keep, :4]
             if self.layout == _YOLOX:  # decode only the rows kept: offsets and logs in cells
                 cells, stride = self._yolox_grid(hw, pred.shape[0])
@@ -722,7 +728,15 @@ class OnnxDetector:
                                      self.iou_threshold, self.max_det, scales[1:], CONTAINMENT)
             timing["postprocess"] += (time.perf_counter() - t0) * 1e3
         self.last_timing_ms = {**timing, "views": float(len(found))}
+        if self.calibration is not None:
+            found[0].score = self.calibration.apply(found[0].score)
         return found[0]
+
+    def _raw_conf(self) -> float:
+        """``conf_threshold`` on the model's own score scale (the calibration inverted)."""
+        if self.calibration is None:
+            return self.conf_threshold
+        return float(self.calibration.invert(self.conf_threshold))
 
     def warmup(self, runs: int = 1) -> None:
         """Run the session on a grey input ``runs`` times (first-run allocations, TensorRT builds)."""

@@ -57,3 +57,25 @@ def constant_output_model(
         [helper.make_tensor_value_info("output0", TensorProto.FLOAT, out_shape)],
     )
     return save_model(path, graph, metadata, producer)
+
+
+def scaled_scores_model(source: Path, path: Path, factor: float) -> Path:
+    """A copy of a YOLOv8-layout model (output ``[1, 4+C, N]``) whose class scores are multiplied by
+    ``factor``: the same boxes and ranking, on another score scale -- a detector that scores low."""
+    model = onnx.load(source)
+    graph = model.graph
+    old = graph.output[0].name
+    raw = old + "_unscaled"
+    for node in graph.node:  # the node that made the output now makes ``raw``
+        node.output[:] = [raw if o == old else o for o in node.output]
+    consts = {"starts_box": [0], "ends_box": [4], "starts_cls": [4], "ends_cls": [1 << 30], "axes": [1]}
+    graph.initializer.extend(numpy_helper.from_array(np.array(v, np.int64), k) for k, v in consts.items())
+    graph.initializer.append(numpy_helper.from_array(np.array(factor, np.float32), "score_factor"))
+    graph.node.extend([
+        helper.make_node("Slice", [raw, "starts_box", "ends_box", "axes"], ["boxes"]),
+        helper.make_node("Slice", [raw, "starts_cls", "ends_cls", "axes"], ["cls"]),
+        helper.make_node("Mul", ["cls", "score_factor"], ["cls_scaled"]),
+        helper.make_node("Concat", ["boxes", "cls_scaled"], [old], axis=1),
+    ])
+    onnx.save(model, path)
+    return path

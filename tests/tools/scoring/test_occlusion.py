@@ -144,6 +144,9 @@ EXPECTED = {
     "occlusion_pedestrian": [("pedestrian", 1.2), ("pedestrian", 1.7)],
     "occlusion_cyclist": [("cyclist", 0.7), ("cyclist", 0.8)],
     "occlusion_car": [("car", 0.8), ("car", 1.1)],
+    "occlusion_crossing": [("car", 0.8), ("car", 1.2), ("cyclist", 1.0), ("cyclist", 1.0),
+                           ("pedestrian", 0.7), ("pedestrian", 1.4)],
+    "occlusion_street": [("car", 0.6), ("cyclist", 1.5), ("pedestrian", 1.5)],
 }
 
 
