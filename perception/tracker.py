@@ -461,6 +461,7 @@ _H_T = np.ascontiguousarray(KF_H.T)
 _I8 = np.eye(8)
 _WH8 = np.array([2, 3] * 4)  # state columns giving [w, h, w, h, w, h, w, h]
 _WH4 = np.array([2, 3] * 2)
+_OFF_DIAGONAL_4 = np.flatnonzero(~np.eye(4, dtype=bool).reshape(16))  # flat indices of a 4x4's off-diagonal
 
 
 def kf_process_noise(x: np.ndarray, q_weights: np.ndarray) -> np.ndarray:
@@ -506,16 +507,23 @@ def kf_update(x: np.ndarray, P: np.ndarray, z: np.ndarray, r: np.ndarray) -> tup
     ``P = (I - K H) P (I - K H)' + K R K'`` (Joseph form). Returns the
     posterior x (N, 8) and P (N, 8, 8) as new arrays.
     """
+    # H = [I 0] picks the box: H x = x[:4], P H' = P[:, :4], H P H' = P[:4, :4], K H = [K 0].
     n = len(x)
-    y = z - x @ _H_T
-    PHT = P @ _H_T
-    S = KF_H @ PHT
+    y = z - x[:, :4]
+    PHT = P[:, :, :4]
+    S = P[:, :4, :4].copy()
     S.reshape(n, 16)[:, ::5] += r
-    # K = P H' S^-1  <=>  K' = S'^-1 (P H')': one batched 4x4 solve, no explicit inverse.
-    K = np.linalg.solve(S.transpose(0, 2, 1), PHT.transpose(0, 2, 1)).transpose(0, 2, 1)
+    if np.count_nonzero(S.reshape(n, 16)[:, _OFF_DIAGONAL_4]):
+        # K = P H' S^-1  <=>  K' = S'^-1 (P H')': one batched 4x4 solve, no explicit inverse.
+        KT = np.linalg.solve(S.transpose(0, 2, 1), PHT.transpose(0, 2, 1))
+        K = KT.transpose(0, 2, 1)
+    else:  # the box filters' case: coordinates independent (F, Q, R, P0 block-diagonal), S diagonal
+        K = PHT / S.reshape(n, 16)[:, None, ::5]
+        KT = K.transpose(0, 2, 1)
     x = x + (K @ y[:, :, None])[:, :, 0]
-    I_KH = _I8 - K @ KF_H
-    P = I_KH @ P @ I_KH.transpose(0, 2, 1) + (K * r[:, None, :]) @ K.transpose(0, 2, 1)
+    # Joseph form with (I - K H) P = P - K P[:4] =: A and A (I - K H)' = A - A[:, :4] K'.
+    A = P - K @ P[:, :4, :]
+    P = A - A[:, :, :4] @ KT + (K * r[:, None, :]) @ KT
     return x, P
 
 
@@ -578,6 +586,19 @@ def _iou(a: np.ndarray, b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
     inter = wh[..., 0] * wh[..., 1]
     wh_a = a @ _XYXY_TO_WH
     union = (wh_a[:, 0] * wh_a[:, 1])[:, None] + area_b - inter
+    return inter / np.maximum(union, _TINY)
+
+
+def _iou_centred(ca: np.ndarray, ha: np.ndarray, cb: np.ndarray, hb: np.ndarray) -> np.ndarray:
+    """(N, M) IoU of boxes given as centres ``ca`` (N, 2), ``cb`` (M, 2) and half sizes ``ha``, ``hb``
+    (>= 0, px): the association's form -- the Kalman state holds centres and sizes, and growing a
+    box (``min_match_size``, ``match_buffer``) only changes its half sizes."""
+    lo = np.maximum(ca[:, None] - ha[:, None], cb - hb)
+    wh = np.minimum(ca[:, None] + ha[:, None], cb + hb)
+    wh -= lo
+    np.maximum(wh, 0.0, out=wh)
+    inter = wh[..., 0] * wh[..., 1]
+    union = (4.0 * ha[:, 0] * ha[:, 1])[:, None] + 4.0 * hb[:, 0] * hb[:, 1] - inter
     return inter / np.maximum(union, _TINY)
 
 
@@ -822,6 +843,8 @@ class Tracker:
         same = trk_class[:, None] == det_class
         if self.config.class_switch_cost is None:
             return cost, ok & same
+        if same.all():
+            return cost, ok
         return np.where(same, cost, cost + self.config.class_switch_cost), ok
 
     def _appearance(
@@ -987,16 +1010,16 @@ class Tracker:
         low = _NO_ROWS if all_high else ((d.scores >= cfg.low_score) & ~is_high).nonzero()[0]
         matches, unmatched_high = _NO_MATCHES, high
         if n:
-            tight, buffered = self._association_iou(n, d.boxes, meas)
-            if self._gal is not None:  # appearance: one buffered pass; the occlusion cost and re-id settle overlaps
-                tight = buffered
+            # appearance: one buffered pass (stages 1 and 2); the occlusion cost and re-id settle overlaps
+            one_pass = self._gal is not None or cfg.match_buffer <= 0
+            iou = self._association_iou(n, meas, cfg.match_buffer if self._gal is not None else 0.0)
             if len(high):
                 barred = self._kept_for_reid(n)
-                matches, unmatched_high = self._associate_high(tight, d, high, all_high, barred)
-                if len(unmatched_high) and buffered is not tight:
-                    matches, unmatched_high = self._associate_buffered(buffered, d, unmatched_high, matches, barred)
+                matches, unmatched_high = self._associate_high(iou, d, high, all_high, barred)
+                if len(unmatched_high) and not one_pass:
+                    matches, unmatched_high = self._associate_buffered(n, meas, d, unmatched_high, matches, barred)
             if len(low):
-                matches = self._associate_low(tight, d, low, matches)
+                matches = self._associate_low(iou, d, low, matches)
             if d.feats is not None and self._gal is not None and (
                 len(unmatched_high) or np.count_nonzero(self._ints.take(matches.trk, axis=0)[:, _STATE] == _TENTATIVE)
             ):
@@ -1050,25 +1073,18 @@ class Tracker:
                 n = self._n
         return n
 
-    def _association_iou(self, n: int, boxes: np.ndarray, meas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(n, M) IoU of the n predicted tracks and the detections, twice: ``tight`` on boxes floored
-        at ``min_match_size``, ``buffered`` on those boxes grown by ``match_buffer`` (the same array
-        when the buffer is 0); ``meas`` are the detections as cxcywh."""
-        cfg = self.config
-        trk = self._x[:n] @ _STATE_TO_XYXY
-        if cfg.min_match_size > 0:
-            det = grow_boxes(boxes, cfg.min_match_size)
-            tight = _iou(grow_boxes(trk, cfg.min_match_size), det, box_area(det))
-        else:
-            tight = _iou(trk, boxes, meas[:, 2] * meas[:, 3])
-        if cfg.match_buffer <= 0:
-            return tight, tight
-        grow = cfg.min_match_size, cfg.match_buffer
-        det = grow_boxes(boxes, *grow)
-        return tight, _iou(grow_boxes(trk, *grow), det, box_area(det))
+    def _association_iou(self, n: int, meas: np.ndarray, buffer: float = 0.0) -> np.ndarray:
+        """(n, M) IoU of the n predicted tracks and the detections (``meas``, cxcywh), each box grown
+        by ``buffer`` of its size per side (0: tight; ``match_buffer``: buffered), then to at least
+        ``min_match_size`` px."""
+        x = self._x[:n]
+        grow, floor = 1.0 + 2.0 * buffer, self.config.min_match_size
+        return _iou_centred(x[:, :2], np.maximum(x[:, 2:4] * grow, floor) * 0.5,
+                            meas[:, :2], np.maximum(meas[:, 2:4] * grow, floor) * 0.5)
 
     def _associate_buffered(
-        self, buffered: np.ndarray, d: _FrameDetections, rows: np.ndarray, matches: _Matches, barred: np.ndarray | None
+        self, n: int, meas: np.ndarray, d: _FrameDetections, rows: np.ndarray, matches: _Matches,
+        barred: np.ndarray | None,
     ) -> tuple[_Matches, np.ndarray]:
         """Step 3, stage 1b: the high-score detections stage 1 left (``rows``) against the tracks it
         left that are not lost, on the buffered IoU (``match_buffer``); returns ``matches`` extended
@@ -1079,14 +1095,13 @@ class Tracker:
         every pair that overlaps unbuffered is settled first (stage 1), and a lost track, whose
         prediction has drifted for a while, is never recovered through the buffer.
         """
-        n = len(buffered)
         bar = self._ints[:n, _STATE] == _LOST
         if barred is not None:
             bar |= barred
         bar[matches.trk] = True
         if bar.all():
             return matches, rows
-        more, rows = self._associate_high(buffered, d, rows, False, bar)
+        more, rows = self._associate_high(self._association_iou(n, meas, self.config.match_buffer), d, rows, False, bar)
         if not len(more.trk):
             return matches, rows
         jumped = None if matches.jumped is None else np.concatenate([matches.jumped, more.jumped])
