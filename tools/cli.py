@@ -987,8 +987,8 @@ def export_embedder(
 @user_errors
 def calibrate_scores_cmd(
     model: Annotated[Path, typer.Argument(help="ONNX detector to calibrate")],
-    suite: Annotated[Path, typer.Option(help="scenarios to measure it on (rendered)")] = Path(
-        "scenarios/suites/smoke.yaml"),
+    suite: Annotated[Path | None, typer.Option(
+        help="scenarios to measure it on, rendered (default: the shipped smoke suite)")] = None,
     out: Annotated[Path | None, typer.Option("--out", help="calibration file (default: <model>.scores.json beside it)")] = None,
     layout: Annotated[str, typer.Option(help="onnx output layout: auto | yolov5 | yolov8 | yolox | end2end")] = "auto",
 ) -> None:
@@ -998,6 +998,10 @@ def calibrate_scores_cmd(
     from lookahead.tools.runs.inputs import load_suite
 
     OnnxDetector(model, layout=layout)  # a missing, broken or hostile model: one line, before the simulator loads
+    if suite is None:
+        from lookahead.sim.catalogue import SCENARIOS
+
+        suite = SCENARIOS / "suites" / "smoke.yaml"
     _, paths = load_suite(suite)
     target = out if out is not None else sidecar_path(model)
     from lookahead.tools.detector.calibrate_scores import calibrate_scores
