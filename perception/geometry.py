@@ -51,7 +51,8 @@ def grow_boxes(boxes: np.ndarray, min_size: float, buffer: float = 0.0) -> np.nd
     return np.concatenate([centre - half, centre + half], axis=1)
 
 
-def _intersection(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def intersection_areas(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(N, M) intersection areas (px^2) of xyxy boxes ``a`` (N, 4) and ``b`` (M, 4)."""
     lt = np.maximum(a[:, None, :2], b[None, :, :2])
     rb = np.minimum(a[:, None, 2:], b[None, :, 2:])
     wh = np.clip(rb - lt, 0, None)
@@ -64,7 +65,7 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=np.float64).reshape(-1, 4)
     if len(a) == 0 or len(b) == 0:
         return np.zeros((len(a), len(b)))
-    inter = _intersection(a, b)
+    inter = intersection_areas(a, b)
     union = box_area(a)[:, None] + box_area(b)[None, :] - inter
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(union > 0, inter / union, 0.0)
@@ -79,7 +80,7 @@ def ioa_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return np.zeros((len(a), len(b)))
     area = box_area(a)[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(area > 0, _intersection(a, b) / area, 0.0)
+        return np.where(area > 0, intersection_areas(a, b) / area, 0.0)
 
 
 def clip_boxes(boxes: np.ndarray, width: int, height: int) -> np.ndarray:

@@ -10,7 +10,6 @@ positives is the model's ``measured`` score. Deterministic: the scenarios' seeds
 
 from __future__ import annotations
 
-import hashlib
 import logging
 import tempfile
 from collections.abc import Callable, Sequence
@@ -19,19 +18,12 @@ from pathlib import Path
 import numpy as np
 
 from lookahead.perception.score_calibration import CALIBRATION_PERCENTILE, ScoreCalibration, measure
+from lookahead.tools.detector.export_embedder import sha256
 
 log = logging.getLogger(__name__)
 
 #: Saturated scores: a detector whose true positives' percentile is this close to 1 is stored at it.
 MAX_MEASURED = 0.999
-
-
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def true_positive_scores(
@@ -76,6 +68,6 @@ def calibrate_scores(
     if not measured > 0:
         raise ValueError(f"{model}: its true positives score 0 (percentile {CALIBRATION_PERCENTILE:g})")
     cal = ScoreCalibration(measured=round(measured, 6), true_positives=len(tp), frames=frames,
-                           source=source, model_sha256=_sha256(model))
+                           source=source, model_sha256=sha256(model))
     log.info("%s: measured %.4f on %d true positives over %d frames", model, measured, len(tp), frames)
     return cal

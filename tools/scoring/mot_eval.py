@@ -221,8 +221,8 @@ def evaluate_mot(
 #: configuration, HOTA too on the public detections; and a leave-one-out selection of memory,
 #: acceleration noise and ``min_hits`` chosen on the *other sequences' other detectors* beats
 #: SORT on every held-out cell. Until issue 33 this profile also lowered the acceleration noise
-#: and changed six association settings, chosen on the public detections: with the noise model's
-#: detections it fell below SORT, which these defaults no longer do.
+#: and changed nine association, score and class settings, chosen on the public detections; the
+#: ADAS defaults now carry MOT files with none of them.
 MOT_PROFILE = {"output_lost": False, "max_lost_s": 0.3}
 
 #: ``normalise_scores``: this percentile of a file's unbounded scores maps to 1.

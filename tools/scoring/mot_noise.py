@@ -16,6 +16,7 @@ import numpy as np
 from lookahead.perception.detections import CLASS_ID
 from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.detectors.gt_detector import GtNoiseConfig, GtNoiseDetector
+from lookahead.perception.geometry import clip_boxes
 from lookahead.perception.mot import MotRecords, from_detections, iter_frames
 from lookahead.tools.scoring.mot_eval import MOT_PEDESTRIAN, is_mot16_gt
 
@@ -31,10 +32,7 @@ MOT_NOISE_LEVELS: dict[str, GtNoiseConfig] = {
 def _truth(rows: MotRecords, width: int, height: int, mot16: bool) -> DetectorTruth:
     """One frame's ground truth clipped to the image, with its truncation and visibility."""
     b = rows.xyxy
-    clipped = np.column_stack([
-        np.clip(b[:, 0], 0, width), np.clip(b[:, 1], 0, height),
-        np.clip(b[:, 2], 0, width), np.clip(b[:, 3], 0, height),
-    ])
+    clipped = clip_boxes(b, width, height)
     area = np.maximum((b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1]), 1e-9)
     inside = (clipped[:, 2] - clipped[:, 0]) * (clipped[:, 3] - clipped[:, 1])
     return DetectorTruth(
