@@ -60,7 +60,8 @@ def build_detector(spec: DetectorSpec, seed: int, render: bool = True) -> Detect
         from lookahead.perception.score_calibration import calibration_for
 
         return OnnxDetector(spec.model, conf_threshold=spec.conf, iou_threshold=spec.iou, windows=spec.windows,
-                            layout=spec.layout, calibration=calibration_for(spec.model, spec.calibration))
+                            layout=spec.layout, calibration=calibration_for(spec.model, spec.calibration),
+                            threads=spec.threads)
     return GtNoiseDetector(GtNoiseConfig(**spec.noise), seed=seed)
 
 

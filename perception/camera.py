@@ -236,6 +236,13 @@ class CameraModel:
         s = np.where(s > 0.0, s, np.nan)
         return self.mount + s[..., None] * d
 
+    def ground_depth(self, ground_z: float = 0.0) -> np.ndarray:
+        """(H, W) float64 depth (m along the optical axis) of the plane z = ``ground_z`` seen at
+        each pixel centre; inf where the ray does not meet it in front of the camera."""
+        u, v = np.meshgrid(np.arange(self.width) + 0.5, np.arange(self.height) + 0.5)
+        z = self.ego_to_camera(self.ground_points(np.stack([u, v], axis=-1), ground_z))[..., 2]
+        return np.where(np.isfinite(z), z, np.inf)
+
     def horizon_v(self) -> float:
         """Image row (px) of the horizon at the image centre column (pinhole)."""
         return float(self.K[1, 2] + self.K[1, 1] * np.tan(self.pitch))

@@ -118,6 +118,11 @@ class DetectorSpec(BaseModel):
         "inside a window are the most magnified one's to detect (perception.detectors.windows). "
         "Default: the middle half around the horizon (2x at 640 x 360); [] for the whole frame only",
     )
+    threads: int = Field(
+        0, ge=0, le=256,
+        description="onnx: inference threads; 0: auto (1 in the simulator's rendered loop, whose other core "
+        "renders the next frame; else onnxruntime's default, one per core)",
+    )
     noise: dict[str, float] = Field(default_factory=dict, description="gt detector noise model")
     plugin: str | None = Field(
         None, description="plugin: 'module:factory' (or 'file.py:factory') or the name of an entry point in group "
@@ -188,6 +193,14 @@ class PerceptionSpec(BaseModel):
     preprocess: PreprocessConfig = Field(
         default_factory=PreprocessConfig,
         description="image preprocessing before the detector (perception.preprocess); default: none",
+    )
+    latency: int = Field(
+        0, ge=0, le=10,
+        description="perception latency (camera frames): a frame's outputs reach the ego's AEB and driver, and its "
+        "warnings the driver, this many frames after it was captured. 0: at the frame itself (every decision acts "
+        "from the frame's own tick); 1: one frame later, as a camera pipeline that perceives frame k while frame "
+        "k+1 is exposed. Simulated runs render frame k+1 while perceiving frame k whenever that cannot change the "
+        "run (always with latency >= 1)",
     )
 
     @model_validator(mode="after")

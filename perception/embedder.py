@@ -25,17 +25,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from lookahead.perception.detectors.onnx_detector import ModelError
+from lookahead.perception.detectors.onnx_detector import ModelError, load_session
 
 log = logging.getLogger(__name__)
 
 #: The shipped embedder (see ``models/REID_MODEL_CARD.md``), found in the ``lookahead.models`` data package.
 DEFAULT_EMBEDDER = Path(str(files("lookahead.models"))) / "reid-mobilenetv2.onnx"
-
-
-def _one_line(text: object, limit: int = 240) -> str:
-    s = " ".join(str(text).split())
-    return s if len(s) <= limit else s[: limit - 3] + "..."
 
 
 class AppearanceEmbedder:
@@ -44,25 +39,19 @@ class AppearanceEmbedder:
     The model takes ``crops`` uint8 (N, S, S, 3) RGB (S fixed, N dynamic) and returns (N, D)
     float features (``export_embedder``'s graph). ``threads`` is onnxruntime's intra-op thread
     count (1 by default: the tracker shares the CPU with the detector and the rest of the loop).
-    Loading a missing or unsuitable file is a one-line ``ModelError``.
+    Loading a missing or unsuitable file is a one-line ``ModelError``. The loaded session is
+    shared within the process (``onnx_detector.load_session``).
     """
 
     def __init__(self, model: str | Path | None = None, threads: int = 1) -> None:
-        import onnxruntime as ort  # heavy; imported only when a model is loaded
-
         self.model_path = Path(model) if model is not None else DEFAULT_EMBEDDER
         label = str(self.model_path)
         if not self.model_path.is_file():
             raise ModelError(f"{label}: embedder model file not found")
-        options = ort.SessionOptions()
-        options.log_severity_level = 3
-        options.intra_op_num_threads = int(threads)
-        options.inter_op_num_threads = 1
-        try:
-            self.session = ort.InferenceSession(str(self.model_path), sess_options=options,
-                                                providers=["CPUExecutionProvider"])
-        except Exception as e:  # onnxruntime raises its own exception types
-            raise ModelError(f"{label}: not a loadable ONNX model ({_one_line(e)})") from e
+        # loaded once per process and file version, shared by the embedders of the same file and
+        # thread count (``load_session``): the session holds no per-call state
+        self.session = load_session(self.model_path, ["CPUExecutionProvider"], intra_op_threads=int(threads),
+                                    inter_op_threads=1, label=label)
         inputs, outputs = self.session.get_inputs(), self.session.get_outputs()
         shape = list(inputs[0].shape)
         if (len(inputs) != 1 or inputs[0].type != "tensor(uint8)" or len(shape) != 4 or shape[3] != 3

@@ -176,11 +176,18 @@ the predicted width loses the track.
 Implementation: the filter is filterpy's ``KalmanFilter`` model (explicit
 ``KF_F``, ``KF_H``, diagonal Q and R from ``kf_process_noise`` and
 ``kf_measurement_noise``; ``predict`` and the Joseph-form ``update``) run on
-all tracks at once: states (N, 8) and covariances (N, 8, 8) stacked, one
-batched matmul chain per step and one batched 4x4 solve for the gain
-(``tests/perception/test_tracker_batch.py`` checks it against filterpy per
-track to 1e-9). Tracks live in preallocated arrays (rows in birth order, the
-order association sees them in), so a frame builds no per-track Python objects.
+all tracks at once (``kf_predict`` / ``kf_update``: states (N, 8), covariances
+(N, 8, 8); ``tests/perception/test_tracker_batch.py`` checks them against
+filterpy per track to 1e-9). The tracker runs the same equations on the 16
+entries of P that a box filter can make non-zero (its four 2x2 blocks:
+``box_filters_predict`` / ``box_filters_update``, bit-identical to the full
+form), on filters laid out one per column so that numpy works on contiguous
+rows. Tracks live in preallocated arrays (rows in birth order, the order
+association sees them in), so a frame builds no per-track Python objects.
+Per frame the cost is a fixed number of small numpy calls (about a
+microsecond each whatever the size), so the code keeps their count low and
+their operands contiguous (the association IoU, for one, takes the track and
+detection boxes as one array of contiguous x, y rows).
 """
 
 from __future__ import annotations
@@ -195,7 +202,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from scipy.optimize import linear_sum_assignment
 
 from lookahead.perception.detections import Detections
-from lookahead.perception.geometry import box_area, grow_boxes, intersection_areas
+from lookahead.perception.geometry import box_area, intersection_areas
 
 log = logging.getLogger(__name__)
 
@@ -451,8 +458,9 @@ def cxcywh_to_xyxy(b: np.ndarray) -> np.ndarray:
 # out so that all tracks are filtered at once: state rows x (N, 8) (filterpy's
 # column x, transposed), covariances P (N, 8, 8). Same F, H, Q, R and the same
 # equations (filterpy ``predict`` and its Joseph-form ``update``); the 4x4
-# innovation covariance is inverted by one batched solve.
-# ``tests/perception/test_tracker_batch.py`` checks it against filterpy.
+# innovation covariance is inverted by one batched solve. The tracker itself runs
+# the block form below (``box_filters_predict`` / ``box_filters_update``).
+# ``tests/perception/test_tracker_batch.py`` checks both against filterpy.
 
 #: State transition, one frame of constant velocity: ``x' = F x``.
 KF_F = np.block([[np.eye(4), np.eye(4)], [np.zeros((4, 4)), np.eye(4)]])
@@ -549,12 +557,102 @@ def box_update(x: np.ndarray, P: np.ndarray, cxcywh: np.ndarray, wp: float) -> t
     return x, P
 
 
-def _cxcywh(b: np.ndarray) -> np.ndarray:
-    """``xyxy_to_cxcywh`` (same arithmetic) of an (N, 4) float64 array."""
-    out = np.empty((len(b), 4))
-    wh = np.subtract(b[:, 2:], b[:, :2], out=out[:, 2:])
-    np.add(b[:, :2], wh / 2.0, out=out[:, :2])
-    return out
+# ------------------------------------------------- block form of the box filter
+# F, H, Q, R and a new filter's P are block-diagonal over the box's four coordinates: coordinate i
+# only couples its value (state row i) with its rate (row i + 4). P keeps that pattern through
+# predict and update, so a box filter's P (8, 8) has 16 non-zero entries: four 2x2 blocks, stored
+# as ``Pb`` (N, 2, 2, 4) with ``Pb[:, a, b, i] = P[:, 4a + i, 4b + i]`` (a, b: 0 value, 1 rate).
+# The tracker keeps one row of 24 per filter, ``[x (8) | Pb (16)]``, and runs the steps on the
+# transposed rows, one filter per column (``box_filters_predict`` / ``box_filters_update``): every
+# quantity is then a contiguous block of rows, the cheapest form for numpy on a few filters. The
+# steps apply ``box_predict`` / ``box_update`` with the same floating-point operations in the
+# same order: each product that ``kf_predict`` / ``kf_update`` sum has at most its one or two
+# non-zero terms here, so the results are bit-identical (``tests/perception/test_tracker_batch.py``).
+
+#: Flat indices, into a row-major 8x8 matrix, of the entries ``Pb`` holds (``Pb``'s order).
+_BLOCK_FLAT = np.array([(4 * a + i) * 8 + 4 * b + i for a in range(2) for b in range(2) for i in range(4)])
+
+
+def kf_block(P: np.ndarray) -> np.ndarray:
+    """The blocks Pb (N, 2, 2, 4) of box-filter covariances P (N, 8, 8) (other entries must be 0)."""
+    return P.reshape(len(P), 64)[:, _BLOCK_FLAT].reshape(len(P), 2, 2, 4)
+
+
+def kf_unblock(Pb: np.ndarray) -> np.ndarray:
+    """The covariances P (N, 8, 8) of blocks Pb (N, 2, 2, 4) (``kf_block``'s inverse)."""
+    P = np.zeros((len(Pb), 64))
+    P[:, _BLOCK_FLAT] = Pb.reshape(len(Pb), 16)
+    return P.reshape(len(Pb), 8, 8)
+
+
+def box_block_initial_state(cxcywh: np.ndarray, p_weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``kf_initial_state`` with the covariance as blocks: x (N, 8), Pb (N, 2, 2, 4)."""
+    n = len(cxcywh)
+    x = np.zeros((n, 8))
+    x[:, :4] = cxcywh
+    Pb = np.zeros((n, 2, 2, 4))
+    Pb.reshape(n, 4, 4)[:, ::3] = ((x.take(_WH8, axis=1) * p_weights) ** 2).reshape(n, 2, 4)
+    return x, Pb
+
+
+def _columns(T: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Views of filters as columns T (24, N): states (8, N), covariance blocks (2, 2, 4, N) (splitting
+    one axis, the reshape is a view whatever T's layout)."""
+    return T[:8], T[8:].reshape(2, 2, 4, T.shape[1])
+
+
+def box_filters_predict(T: np.ndarray, q_weights: np.ndarray) -> None:
+    """``box_predict`` of N box filters given as columns T (24, N: rows x (8) and ``Pb`` (16);
+    fastest C-contiguous), in place.
+
+    Per coordinate ``F = [[1, 1], [0, 1]]``: ``F P`` adds the rate row to the value row,
+    ``(F P) F'`` then the rate column to the value column; Q adds to the diagonal blocks.
+    """
+    x, P = _columns(T)
+    rates = x[6:8]
+    rates[x[2:4] + rates <= _MIN_SIZE_PX] = 0.0  # never predict a size through zero
+    q = (np.maximum(x.take(_WH8, axis=0), 1.0) * q_weights[:, None]) ** 2  # kf_process_noise, transposed
+    x[:4] += x[4:]
+    P[0] += P[1]
+    P[:, 0] += P[:, 1]
+    P[0, 0] += q[:4]  # value variances
+    P[1, 1] += q[4:]  # rate variances
+    np.maximum(x[2:4], _MIN_SIZE_PX, out=x[2:4])
+
+
+def box_filters_update(T: np.ndarray, zT: np.ndarray, wp: float) -> None:
+    """``box_update`` of N box filters given as columns T (24, N, as ``box_filters_predict``) with
+    measured boxes zT (4, N, cxcywh), in place.
+
+    Per coordinate, with ``S = P00 + r`` and gain ``K = P[:, 0] / S`` (value and rate):
+    ``x += K y``; Joseph form ``A = P - K P[0]``, ``P = A - A[:, 0] K' + (K r) K'``.
+    """
+    x, P = _columns(T)
+    r = (wp * np.maximum(x.take(_WH4, axis=0), 1.0)) ** 2  # kf_measurement_noise, transposed
+    y = zT - x[:4]
+    K = P[:, 0] / (P[0, 0] + r)  # (2, 4, N)
+    x += (K * y).reshape(x.shape)
+    A = P - K[:, None] * P[0]
+    Kt = K[None]
+    np.add(A - A[:, :1] * Kt, (K * r)[:, None] * Kt, out=P)
+    np.maximum(x[2:4], _MIN_SIZE_PX, out=x[2:4])
+
+
+def _kf_views(kf: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The states x (N, 8) and covariance blocks Pb (N, 2, 2, 4) of filter rows kf (N, 24), as views."""
+    return kf[:, :8], kf[:, 8:].reshape(len(kf), 2, 2, 4)
+
+
+def _cxcywh(b: np.ndarray, bT: np.ndarray | None = None) -> np.ndarray:
+    """``xyxy_to_cxcywh`` (same arithmetic) of an (N, 4) float64 array (``bT``: its C-contiguous
+    transpose, if at hand), as the (N, 4) transpose of a C-contiguous (4, N) array: computed on
+    contiguous rows, and the form association and the filters' columns (``box_filters_update``) take."""
+    if bT is None:
+        bT = b.T.copy()
+    out = np.empty((4, len(b)))
+    wh = np.subtract(bT[2:], bT[:2], out=out[2:])
+    np.add(bT[:2], wh / 2.0, out=out[:2])
+    return out.T
 
 
 #: State rows (N, 8) @ this = their boxes as xyxy (N, 4): ``[cx - w/2, cy - h/2, cx + w/2, cy + h/2]``.
@@ -584,16 +682,19 @@ def _iou(a: np.ndarray, b: np.ndarray, area_b: np.ndarray) -> np.ndarray:
     return inter / np.maximum(union, _TINY)
 
 
-def _iou_centred(ca: np.ndarray, ha: np.ndarray, cb: np.ndarray, hb: np.ndarray) -> np.ndarray:
-    """(N, M) IoU of boxes given as centres ``ca`` (N, 2), ``cb`` (M, 2) and half sizes ``ha``, ``hb``
-    (>= 0, px): the association's form -- the Kalman state holds centres and sizes, and growing a
-    box (``min_match_size``, ``match_buffer``) only changes its half sizes."""
-    lo = np.maximum(ca[:, None] - ha[:, None], cb - hb)
-    wh = np.minimum(ca[:, None] + ha[:, None], cb + hb)
-    wh -= lo
+def _iou_centred(c: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
+    """(N, M) IoU of the boxes ``[:, :n]`` and ``[:, n:]`` (N + M columns) of centres c (2, N + M) and
+    half sizes h (2, N + M, >= 0, px): the association's form -- the Kalman state holds centres and
+    sizes, and growing a box (``min_match_size``, ``match_buffer``) only changes its half sizes. Both
+    sets in one array, x and y as contiguous rows, make each step one cheap call (same arithmetic
+    as ``_iou``)."""
+    lo, hi = c - h, c + h
+    area = 4.0 * h[0] * h[1]
+    wh = np.minimum(hi[:, :n, None], hi[:, None, n:])  # (2, N, M)
+    wh -= np.maximum(lo[:, :n, None], lo[:, None, n:])
     np.maximum(wh, 0.0, out=wh)
-    inter = wh[..., 0] * wh[..., 1]
-    union = (4.0 * ha[:, 0] * ha[:, 1])[:, None] + 4.0 * hb[:, 0] * hb[:, 1] - inter
+    inter = wh[0] * wh[1]
+    union = area[:n, None] + area[n:] - inter
     return inter / np.maximum(union, _TINY)
 
 
@@ -643,6 +744,7 @@ _AGE, _TSU, _HITS, _STATE, _ID, _CLASS, _DET, _LIMIT = range(8)
 _NUM_INT = 8
 _TENTATIVE, _CONFIRMED, _LOST = int(TrackState.TENTATIVE), int(TrackState.CONFIRMED), int(TrackState.LOST)
 _NO_ROWS = np.zeros(0, dtype=np.intp)
+_NO_BOXES = np.zeros((0, 4))
 # Gallery bookkeeping, the columns of ``Tracker._gal_meta`` (capacity, 3): features stored,
 # next ring-buffer slot, ``frame_count`` of the newest feature.
 _GCOUNT, _GHEAD, _GLAST = range(3)
@@ -654,6 +756,7 @@ class _FrameDetections:
     """One frame's detections as association sees them (``Tracker._prepare``), M rows."""
 
     boxes: np.ndarray  # (M, 4) xyxy px
+    meas: np.ndarray  # (M, 4) the boxes as cxcywh px (``_cxcywh``)
     scores: np.ndarray  # (M,)
     classes: np.ndarray  # (M,) class ids
     evidence: np.ndarray  # (M, W) class evidence (``Tracker._class_evidence``), duplicates folded in
@@ -718,8 +821,7 @@ class Tracker:
         # Anchors (with the galleries): each track's Kalman state and covariance right after the match that
         # gave its newest gallery feature, predicted on every frame since -- the motion model run from the
         # last confident view, for the re-id gate (``_reid_gate``).
-        self._anc_x = np.zeros((0, 8))
-        self._anc_P = np.zeros((0, 8, 8))
+        self._anc = np.zeros((0, 24))  # filter rows, as ``_kf``
         self._votes = np.zeros((0, 0))  # (capacity, classes + 1): column class_id + 1 (see _class_votes)
         self._alloc(16)
         self._next_id = 1
@@ -737,32 +839,49 @@ class Tracker:
     def _alloc(self, capacity: int) -> None:
         """(Re)allocate the track arrays with ``capacity`` rows, keeping rows [0, n)."""
         n = self._n
-        x, P = np.zeros((capacity, 8)), np.zeros((capacity, 8, 8))
+        kf = np.zeros((capacity, 24))  # Kalman filters: state x (8) and covariance blocks Pb (16) per row
         score, ints = np.zeros(capacity), np.zeros((capacity, _NUM_INT), dtype=np.int64)
         if n:
-            x[:n], P[:n], score[:n], ints[:n] = self._x[:n], self._P[:n], self._score[:n], self._ints[:n]
+            kf[:n], score[:n], ints[:n] = self._kf[:n], self._score[:n], self._ints[:n]
         feat = None
         if self._feat is not None:
             feat = np.full((capacity, self._feat.shape[1]), np.nan)
             feat[:n] = self._feat[:n]
         votes = np.zeros((capacity, self._votes.shape[1]))
         votes[:n] = self._votes[:n]
-        self._x, self._P, self._score, self._ints, self._feat, self._votes = x, P, score, ints, feat, votes
+        self._kf, self._score, self._ints, self._feat, self._votes = kf, score, ints, feat, votes
         if self._gal is not None:
             gal = np.zeros((capacity, *self._gal.shape[1:]), dtype=np.float32)
             meta = np.zeros((capacity, 3), dtype=np.int64)
             gal[:n], meta[:n] = self._gal[:n], self._gal_meta[:n]
-            anc_x, anc_P = np.zeros((capacity, 8)), np.zeros((capacity, 8, 8))
-            anc_x[:n], anc_P[:n] = self._anc_x[:n], self._anc_P[:n]
-            self._gal, self._gal_meta, self._anc_x, self._anc_P = gal, meta, anc_x, anc_P
-        self._track_id = ints[:, _ID]
+            anc = np.zeros((capacity, 24))
+            anc[:n] = self._anc[:n]
+            self._gal, self._gal_meta, self._anc = gal, meta, anc
+        self._views()
+
+    _VIEWS = ("_x", "_P", "_anc_x", "_anc_P", "_track_id")
+
+    def _views(self) -> None:
+        """(Re)make the views into the track arrays: states ``_x`` (capacity, 8) and covariance blocks
+        ``_P`` (capacity, 2, 2, 4) of the filter rows ``_kf`` (capacity, 24), the anchors' alike, ids."""
+        self._x, self._P = _kf_views(self._kf)
+        self._anc_x, self._anc_P = _kf_views(self._anc)
+        self._track_id = self._ints[:, _ID]
+
+    def __getstate__(self) -> dict:
+        """Pickled (and deep-copied) without the views, which would become arrays of their own."""
+        return {k: v for k, v in self.__dict__.items() if k not in self._VIEWS}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._views()
 
     def _keep(self, keep: np.ndarray) -> None:
         """Remove the live rows where ``keep`` (n,) is False, preserving the order of the others."""
         n, m = self._n, int(np.count_nonzero(keep))
-        arrays = (self._x, self._P, self._score, self._ints, self._votes)
+        arrays = (self._kf, self._score, self._ints, self._votes)
         arrays += () if self._feat is None else (self._feat,)
-        arrays += () if self._gal is None else (self._gal, self._gal_meta, self._anc_x, self._anc_P)
+        arrays += () if self._gal is None else (self._gal, self._gal_meta, self._anc)
         for a in arrays:
             a[:m] = a[:n][keep]
         self._n = m
@@ -784,20 +903,21 @@ class Tracker:
             self._gal = np.zeros((len(self._x), self.config.gallery_size, dim), dtype=np.float32)
             self._gal_meta = np.zeros((len(self._x), 3), dtype=np.int64)
             self._gal_meta[:, _GLAST] = _NEVER
-            self._anc_x, self._anc_P = np.zeros((len(self._x), 8)), np.zeros((len(self._x), 8, 8))
+            self._anc = np.zeros((len(self._x), 24))
+            self._views()
         return self._gal
 
     # ------------------------------------------------------------------ input
-    def _valid_mask(self, b: np.ndarray, s: np.ndarray) -> np.ndarray | None:
-        """Valid rows (finite coordinates and score, positive size, |coordinates| <= max_abs_coord); None if all are."""
+    def _valid_mask(self, b: np.ndarray, s: np.ndarray, bT: np.ndarray | None = None) -> np.ndarray | None:
+        """Valid rows (finite coordinates and score, positive size, |coordinates| <= max_abs_coord); None if all are.
+        ``bT``: the C-contiguous transpose of b (4, M), if at hand (its rows make the checks cheaper)."""
         limit = self.config.max_abs_coord
-        # Fast path; abs().max() is NaN, so not <= limit, when a coordinate is NaN.
         # Fast path (count_nonzero is much cheaper than all() on small arrays); NaN fails <= limit.
         m = len(s)
         if (
             limit < np.inf
             and np.count_nonzero(np.abs(b) <= limit) == 4 * m
-            and np.count_nonzero(b[:, 2:] > b[:, :2]) == 2 * m
+            and np.count_nonzero(b[:, 2:] > b[:, :2] if bT is None else bT[2:] > bT[:2]) == 2 * m
             and np.count_nonzero(np.isfinite(s)) == m
         ):
             return None
@@ -829,6 +949,8 @@ class Tracker:
             return _NO_ROWS, _NO_ROWS
         rows, cols = linear_sum_assignment(np.where(ok, cost, _BIG_COST))
         keep = ok[rows, cols]
+        if np.count_nonzero(keep) == len(keep):
+            return rows, cols
         return rows[keep], cols[keep]
 
     def _class_gate(
@@ -838,7 +960,7 @@ class Tracker:
         same = trk_class[:, None] == det_class
         if self.config.class_switch_cost is None:
             return cost, ok & same
-        if same.all():
+        if np.count_nonzero(same) == same.size:
             return cost, ok
         return np.where(same, cost, cost + self.config.class_switch_cost), ok
 
@@ -920,8 +1042,7 @@ class Tracker:
             return need
         b = boxes[drows]
         meas = _cxcywh(b)
-        x, P = self._x[:n].copy(), self._P[:n].copy()
-        box_predict(x, P, self._q_weights)  # what update's _predict will compute
+        x, P = _kf_views(self._predicted(self._kf[:n]))  # what update's _predict will compute
         iou = self._association_iou(x, meas, cfg.match_buffer)  # the IoU stage 1 uses with galleries
         if gallery:  # tracks kept for re-id only take no part in IoU association
             iou[tsu > self.max_lost_frames + 1] = 0.0
@@ -940,8 +1061,7 @@ class Tracker:
             free = np.ones(len(drows), dtype=bool)
             free[col[state.take(trk) != _TENTATIVE]] = False
             if np.count_nonzero(free):
-                ax, aP = self._anc_x[lost], self._anc_P[lost]  # copies (fancy indexing)
-                box_predict(ax, aP, self._q_weights)
+                ax, aP = _kf_views(self._predicted(self._anc[lost]))
                 gate = self._motion_gate(x[lost], P[lost], meas) | self._motion_gate(ax, aP, meas)
                 if cfg.per_class and cfg.class_switch_cost is None:
                     gate &= ints[lost, _CLASS][:, None] == np.asarray(detections.class_id)[drows]
@@ -993,7 +1113,7 @@ class Tracker:
             if n:
                 self._prune(n)
             return self._output()
-        meas = _cxcywh(d.boxes)  # [cx, cy, w, h]
+        meas = d.meas  # [cx, cy, w, h]
         is_high = d.scores >= cfg.high_score
         high = is_high.nonzero()[0]
         all_high = len(high) == m
@@ -1028,14 +1148,17 @@ class Tracker:
         use = cfg.reid_weight > 0 or cfg.gallery_size > 0
         feats = self._clean_features(features, len(boxes)) if use else None
         orig_index = None  # row in ``detections`` of each valid row (None: the same rows)
+        meas = _NO_BOXES
         if len(boxes):
-            valid = self._valid_mask(boxes, scores)
+            bT = boxes.T.copy()
+            valid = self._valid_mask(boxes, scores, bT)
             if valid is not None:
                 self.dropped_detections += len(valid) - int(np.count_nonzero(valid))
                 orig_index = np.flatnonzero(valid)
-                boxes, scores, classes = boxes[valid], scores[valid], classes[valid]
+                boxes, scores, classes, bT = boxes[valid], scores[valid], classes[valid], None
                 if feats is not None:
                     feats = feats[valid]
+            meas = _cxcywh(boxes, bT)
         evidence = self._class_evidence(classes, scores)
         if cfg.duplicate_iou is not None and len(boxes) > 1:
             lead = self._merge_duplicates(boxes, scores, classes, evidence)
@@ -1043,33 +1166,44 @@ class Tracker:
                 self.merged_duplicates += len(lead) - int(np.count_nonzero(lead))
                 orig_index = np.flatnonzero(lead) if orig_index is None else orig_index[lead]
                 boxes, scores, classes, evidence = boxes[lead], scores[lead], classes[lead], evidence[lead]
+                meas = _cxcywh(boxes)
                 if feats is not None:
                     feats = feats[lead]
-        return _FrameDetections(boxes, scores, classes, evidence, orig_index, feats)
+        return _FrameDetections(boxes, meas, scores, classes, evidence, orig_index, feats)
 
     def _predict(self) -> int:
         """Step 2: predict every track one frame; drop filters that are no longer finite. Returns n."""
         n = self._n
         if n:
-            x, P = self._x[:n], self._P[:n]
-            box_predict(x, P, self._q_weights)
+            T = self._kf[:n].T.copy()  # one filter per column (box_filters_predict)
+            box_filters_predict(T, self._q_weights)
+            self._kf[:n] = T.T
             if self._gal is not None:
-                box_predict(self._anc_x[:n], self._anc_P[:n], self._q_weights)
+                self._anc[:n] = self._predicted(self._anc[:n])
             ints = self._ints[:n]
-            ints[:, _AGE : _TSU + 1] += 1
+            ints[:, _AGE] += 1  # (one column at a time: cheaper than a 2-d slice)
+            ints[:, _TSU] += 1
             ints[:, _DET] = -1
-            if np.count_nonzero(np.isfinite(x)) < x.size or np.count_nonzero(np.isfinite(P)) < P.size:
-                self._keep(np.isfinite(x).all(axis=1) & np.isfinite(P.reshape(n, 64)).all(axis=1))
+            if np.count_nonzero(np.isfinite(T)) < T.size:
+                self._keep(np.isfinite(T).all(axis=0))
                 n = self._n
         return n
+
+    def _predicted(self, kf: np.ndarray) -> np.ndarray:
+        """Filter rows kf (N, 24) predicted one frame (``box_filters_predict``), as new (N, 24) rows."""
+        T = kf.T.copy()
+        box_filters_predict(T, self._q_weights)
+        return T.T
 
     def _association_iou(self, x: np.ndarray, meas: np.ndarray, buffer: float = 0.0) -> np.ndarray:
         """(N, M) IoU of the tracks whose predicted states are ``x`` (N, 8) and the detections
         (``meas``, cxcywh), each box grown by ``buffer`` of its size per side (0: tight;
         ``match_buffer``: buffered), then to at least ``min_match_size`` px."""
-        grow, floor = 1.0 + 2.0 * buffer, self.config.min_match_size
-        return _iou_centred(x[:, :2], np.maximum(x[:, 2:4] * grow, floor) * 0.5,
-                            meas[:, :2], np.maximum(meas[:, 2:4] * grow, floor) * 0.5)
+        boxes = np.concatenate([x[:, :4].T, meas.T], axis=1)  # (4, N + M): tracks, then detections (cxcywh)
+        size = boxes[2:]
+        if buffer:
+            size = size * (1.0 + 2.0 * buffer)
+        return _iou_centred(boxes[:2], np.maximum(size, self.config.min_match_size) * 0.5, len(x))
 
     def _associate_buffered(
         self, n: int, meas: np.ndarray, d: _FrameDetections, rows: np.ndarray, matches: _Matches,
@@ -1240,7 +1374,7 @@ class Tracker:
         trk, det = rows[r], cols[c]
         if anchored is not None and np.count_nonzero(anchored[r, c]):
             a = trk[anchored[r, c]]
-            self._x[a], self._P[a] = self._anc_x[a], self._anc_P[a]
+            self._kf[a] = self._anc[a]
         keep = ~np.isin(mdet, det)  # tentative tracks whose detection a lost track takes over
         if np.count_nonzero(~keep):
             self._ints[mtrk[~keep], _LIMIT] = -1  # unmatched now: _prune removes them
@@ -1279,10 +1413,11 @@ class Tracker:
         sim = np.where(stored[:, :, None], sim, -np.inf)
         return 1.0 - sim.max(axis=1).astype(np.float64)
 
-    def _motion_gate(self, x: np.ndarray, P: np.ndarray, z: np.ndarray) -> np.ndarray:
+    def _motion_gate(self, x: np.ndarray, Pb: np.ndarray, z: np.ndarray) -> np.ndarray:
         """(L, U) whether boxes z (U, 4, cxcywh) lie within ``reid_gate`` (squared Mahalanobis distance,
-        innovation covariance ``H P H' + R``) of the predicted states x (L, 8), covariances P (L, 8, 8)."""
-        S = P[:, :4, :4].copy()
+        innovation covariance ``H P H' + R``) of the predicted states x (L, 8), covariance blocks Pb
+        (L, 2, 2, 4, ``kf_block``)."""
+        S = kf_unblock(Pb)[:, :4, :4].copy()
         S.reshape(len(S), 16)[:, ::5] += kf_measurement_noise(x, self.config.std_weight_position)
         y = z[None, :, :] - x[:, None, :4]  # (L, U, 4)
         d2 = np.einsum("lui,lij,luj->lu", y, np.linalg.inv(S), y)
@@ -1324,30 +1459,30 @@ class Tracker:
         meta[trk, _GHEAD] = (slot + 1) % cfg.gallery_size
         meta[trk, _GCOUNT] = np.minimum(meta[trk, _GCOUNT] + 1, cfg.gallery_size)
         meta[trk, _GLAST] = self.frame_count
-        self._anc_x[trk], self._anc_P[trk] = self._x[trk], self._P[trk]
+        self._anc[trk] = self._kf[trk]
 
     def _apply_matches(self, matches: _Matches, d: _FrameDetections, meas: np.ndarray) -> None:
         """Update the matched tracks (rows ``trk``, each once) with their detections ``det``, in pair order."""
         trk, det, jumped = matches
         upd, det_upd = trk, det
         if jumped is not None and np.count_nonzero(jumped):
-            self._x[trk[jumped]], self._P[trk[jumped]] = kf_initial_state(meas[det[jumped]], self._p_weights)
+            self._x[trk[jumped]], self._P[trk[jumped]] = box_block_initial_state(meas[det[jumped]], self._p_weights)
             upd, det_upd = trk[~jumped], det[~jumped]
         if len(upd):
-            self._x[upd], self._P[upd] = box_update(
-                self._x.take(upd, axis=0), self._P.take(upd, axis=0), meas.take(det_upd, axis=0),
-                self.config.std_weight_position,
-            )
+            T = self._kf.take(upd, axis=0).T.copy()  # one filter per column (box_filters_update)
+            box_filters_update(T, meas.T.take(det_upd, axis=1), self.config.std_weight_position)
+            self._kf[upd] = T.T
         self._score[trk] = d.scores.take(det)
         ints = self._ints.take(trk, axis=0)
         ints[:, _HITS] += 1
         ints[:, _TSU] = 0
-        ints[:, _CLASS] = self._class_votes(trk, d.classes.take(det), d.evidence.take(det, axis=0), decay=True,
-                                            current=ints[:, _CLASS])
+        ints[:, _CLASS] = self._class_votes(trk, d, det, decay=True, current=ints[:, _CLASS])
         ints[:, _DET] = det if d.orig_index is None else d.orig_index.take(det)
         state = ints[:, _STATE]
-        state[state == _LOST] = _CONFIRMED
-        confirm = ((state == _TENTATIVE) & (ints[:, _HITS] >= self.config.min_hits)).nonzero()[0]
+        np.minimum(state, _CONFIRMED, out=state)  # lost -> confirmed (tentative 0 < confirmed 1 < lost 2)
+        confirm = (state == _TENTATIVE).nonzero()[0]
+        if len(confirm):
+            confirm = confirm[ints[confirm, _HITS] >= self.config.min_hits]
         if len(confirm):  # ids in match order
             state[confirm] = _CONFIRMED
             ints[confirm, _ID] = np.arange(self._next_id, self._next_id + len(confirm))
@@ -1376,14 +1511,19 @@ class Tracker:
         """(M, W) class evidence of detections: each one's score (at least 1e-6, so a zero
         score still counts) in column ``class_id + 1`` (column 0: any negative, unknown,
         class); W covers the track votes' columns and these classes (the votes grow to W)."""
+        m, width = len(classes), self._votes.shape[1]
+        if not m:
+            return np.zeros((0, width))
         col = np.maximum(classes, -1) + 1
-        width = max(self._votes.shape[1], int(col.max(initial=0)) + 1)
-        if width > self._votes.shape[1]:
+        top = int(np.maximum.reduce(col))
+        if top >= width:
+            width = top + 1
             grown = np.zeros((len(self._votes), width))
             grown[:, : self._votes.shape[1]] = self._votes
             self._votes = grown
-        evidence = np.zeros((len(classes), width))
-        evidence[np.arange(len(classes)), col] = np.maximum(scores, 1e-6)
+        evidence = np.zeros((m, width))
+        col += np.arange(0, m * width, width)  # flat index of (row, column)
+        evidence.reshape(-1)[col] = np.maximum(scores, 1e-6)
         return evidence
 
     def _merge_duplicates(
@@ -1398,16 +1538,25 @@ class Tracker:
         (M,) mask of the detections to keep, or None when every one is kept.
         """
         cfg = self.config
-        active = scores >= cfg.low_score
-        if np.count_nonzero(active) < 2 or np.all(classes == classes[0]):
+        if not np.count_nonzero(classes != classes[0]):
             return None  # one class: nothing is another class's duplicate
-        g = grow_boxes(boxes, cfg.min_match_size) if cfg.min_match_size > 0 else boxes
-        iou = _iou(g, g, box_area(g))
+        active = scores >= cfg.low_score
+        if np.count_nonzero(active) < 2:
+            return None
+        g = boxes
+        if cfg.min_match_size > 0:  # geometry.grow_boxes(boxes, min_match_size), same arithmetic
+            centre = (boxes[:, :2] + boxes[:, 2:]) / 2.0
+            half = np.maximum(boxes[:, 2:] - boxes[:, :2], cfg.min_match_size) / 2.0
+            g = np.concatenate([centre - half, centre + half], axis=1)
+        wh = g[:, 2:] - g[:, :2]  # >= 0: geometry.box_area's clipping changes nothing
+        over = _iou(g, g, wh[:, 0] * wh[:, 1]) > cfg.duplicate_iou
+        over &= classes[:, None] != classes  # the detector's own NMS already settled one class's overlaps
+        if not np.count_nonzero(over):
+            return None  # no two classes overlap: the usual frame
         m = len(boxes)
         rows = np.arange(m)
         higher = (scores[:, None] > scores) | ((scores[:, None] == scores) & (rows[:, None] < rows))
-        over = (iou > cfg.duplicate_iou) & higher & active[:, None] & active  # over[i, j]: i suppresses j
-        over &= classes[:, None] != classes  # the detector's own NMS already settled one class's overlaps
+        over &= higher & active[:, None] & active  # over[i, j]: i suppresses j
         leader = ~over.any(axis=0)
         joins = over & leader[:, None]
         follower = joins.any(axis=0)
@@ -1419,25 +1568,27 @@ class Tracker:
         return ~follower
 
     def _class_votes(
-        self, rows: np.ndarray, cls: np.ndarray, evidence: np.ndarray, decay: bool, current: np.ndarray | None = None
+        self, rows: np.ndarray, d: _FrameDetections, det: np.ndarray, decay: bool, current: np.ndarray | None = None
     ) -> np.ndarray:
-        """Add detections' class ``evidence`` (``_class_evidence``) to the votes of tracks ``rows``;
-        their classes (``cls``, the detections' own, when ``class_memory`` is 0).
+        """Add the class evidence of detections ``det`` (``_class_evidence``) to the votes of tracks
+        ``rows``; their classes (the detections' own when ``class_memory`` is 0).
 
         A new track (``decay`` False) starts from its detection alone; a matched one keeps
         its ``current`` class unless another's votes beat it by ``class_hysteresis``.
         """
         m = self.config.class_memory
         if m <= 0.0:
-            return cls
-        votes = self._votes[rows] * m + evidence if decay else evidence.copy()
+            return d.classes.take(det)
+        votes = d.evidence.take(det, axis=0)  # a new array
+        if decay:
+            votes = self._votes.take(rows, axis=0) * m + votes
         self._votes[rows] = votes
-        best = votes.argmax(axis=1)
-        if current is None or self.config.class_hysteresis <= 1.0:
-            return best - 1
+        best = votes.argmax(axis=1) - 1  # class ids
+        if current is None or self.config.class_hysteresis <= 1.0 or not np.count_nonzero(best != current):
+            return best  # (the last: the usual case, the current class still leads)
         idx = np.arange(len(rows))
-        keep = votes[idx, best] <= self.config.class_hysteresis * votes[idx, current + 1]
-        return np.where(keep, current, best - 1)
+        keep = votes[idx, best + 1] <= self.config.class_hysteresis * votes[idx, current + 1]
+        return np.where(keep, current, best)
 
     def _prune(self, n: int) -> None:
         """Tracks among the first n rows not matched this frame: remove the expired, the others turn lost."""
@@ -1469,12 +1620,11 @@ class Tracker:
         if n + k > len(self._x):
             self._alloc(max(2 * len(self._x), n + k))
         rows = slice(n, n + k)
-        self._x[rows], self._P[rows] = kf_initial_state(meas.take(new, axis=0), self._p_weights)
+        self._x[rows], self._P[rows] = box_block_initial_state(meas.take(new, axis=0), self._p_weights)
         self._score[rows] = d.scores.take(new)
         ints = self._ints[rows]
         ints[:] = self._newborn  # age 0, one hit, tentative, no id
-        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), d.classes.take(new), d.evidence.take(new, axis=0),
-                                            decay=False)
+        ints[:, _CLASS] = self._class_votes(np.arange(n, n + k), d, new, decay=False)
         ints[:, _DET] = new if d.orig_index is None else d.orig_index.take(new)
         if d.feats is not None:
             f = d.feats[new]

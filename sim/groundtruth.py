@@ -3,16 +3,17 @@
 3D boxes come from each actor's shape at its current gait phase (tight), so
 the amodal 2D box is the projection of the 8 corners through the one camera
 model, clipped at the near plane. Visible boxes and visible fractions come from
-the renderer's segmentation: visible fraction = visible pixels / pixels of the
-actor's unoccluded silhouette (re-rendered alone when a nearer actor overlaps
-it). Without rendering they are estimated from box overlap (documented as an
-approximation). Labels, behaviour and risk come from ``intent.labels.assess``,
+the renderer's segmentation (``with_visibility``): visible fraction = visible
+pixels / pixels of the actor's unoccluded silhouette (rendered alone, only where
+something nearer hides it). Without rendering they are estimated from box overlap
+(``world_truth``; documented as an approximation). Labels, behaviour and risk come from ``intent.labels.assess``,
 the same code that labels predictions.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -27,6 +28,10 @@ from lookahead.sim.layout import ego_frame
 if TYPE_CHECKING:
     from lookahead.sim.world import World
 
+Silhouettes = Callable[[list[int], tuple[int, int, int, int]], np.ndarray]
+"""``(actor ids, pixel window (u0, v0, u1, v1)) -> (H, W) segmentation of those actors alone``."""
+
+GROUND_LEVEL = 0.85  # depth / flat-ground depth above which a pixel is ground level (~0.2 m high for a camera at 1.4 m)
 GT_MAX_RANGE = 200.0  # m; actors farther than this (or > 10 m behind) are left out
 OBSTACLE_CLASS_ID = -1  # static obstacles are not a detection class
 
@@ -184,16 +189,20 @@ def compute_ground_truth(
     camera: CameraModel,
     config: IntentConfig,
     seg: np.ndarray | None = None,
-    silhouettes=None,
+    silhouettes: Silhouettes | None = None,
+    depth: np.ndarray | None = None,
+    ground_depth: np.ndarray | None = None,
 ) -> GroundTruth:
-    """Ground truth for the world's current state.
+    """Ground truth for the world's current state: ``world_truth``, then, with a render,
+    ``with_visibility`` (its arguments ``seg``, ``depth``, ``ground_depth``, ``silhouettes``)."""
+    gt = world_truth(world, camera, config)
+    return gt if seg is None else with_visibility(gt, camera, seg, depth, silhouettes, ground_depth)
 
-    Args:
-        seg: the renderer's segmentation (H, W) of actor ids, or None without rendering.
-        silhouettes: ``callable(ids, window) -> seg`` rendering only the given actors
-            (for visible fractions of occluded actors), only inside the pixel ``window``
-            (u0, v0, u1, v1) that holds their boxes; required when ``seg`` is given.
-    """
+
+def world_truth(world: World, camera: CameraModel, config: IntentConfig) -> GroundTruth:
+    """Ground truth of the world's current state without a render: visible boxes are the
+    in-image amodal boxes, visible fractions estimated from box overlap
+    (``occlusion_from_boxes``), ``pixels`` -1; ``with_visibility`` measures them on a render."""
     st = world.agent_states()
     ox, oy, oyaw = world.ego_pose()
     rel = ego_frame(np.array([ox, oy]), oyaw, st.xy)
@@ -233,37 +242,11 @@ def compute_ground_truth(
     lr = vg[:, 1] - w * centre[:, 0]
 
     cam_depth = camera.ego_to_camera(centre)[:, 2] if n else np.zeros(0)
-    if seg is not None:
-        visible, pixels = mask_boxes(seg, ids)
-        vis_frac = np.where(pixels > 0, 1.0, 0.0)
-        # Actors overlapped by a nearer actor's box get their silhouette rendered alone.
-        in_img = trunc < 1.0
-        ov = iou_matrix(np.nan_to_num(amodal), np.nan_to_num(amodal)) > 0
-        nearer = cam_depth[None, :] < cam_depth[:, None]
-        occluded = in_img & (pixels > 0) & np.any(ov & nearer & in_img[None, :], axis=1)
-        # Also actors whose visible box is clearly smaller than their in-image amodal box.
-        clipped = clip_boxes(np.nan_to_num(amodal), camera.width, camera.height)
-        shrunk = (pixels > 0) & (iou_matrix(np.nan_to_num(visible), clipped).diagonal() < 0.9) if n else np.zeros(0, bool)
-        todo = list(np.nonzero(occluded | shrunk)[0])
-        while todo and silhouettes is not None:
-            group: list[int] = []
-            for k in todo:  # greedy: a pass holds actors whose boxes don't overlap
-                if all(not ov[k, j] for j in group):
-                    group.append(k)
-            todo = [k for k in todo if k not in group]
-            # only the window holding the group's amodal boxes (+2 px) is rendered
-            box = clipped[group]
-            window = (int(np.floor(box[:, 0].min())) - 2, int(np.floor(box[:, 1].min())) - 2,
-                      int(np.ceil(box[:, 2].max())) + 2, int(np.ceil(box[:, 3].max())) + 2)
-            sil = silhouettes([int(ids[k]) for k in group], window)
-            _, full = mask_boxes(sil, ids[group])
-            vis_frac[group] = np.clip(pixels[group] / np.maximum(full, 1), 0.0, 1.0)
-    else:
-        visible = clip_boxes(np.nan_to_num(amodal), camera.width, camera.height)
-        visible[trunc >= 1.0] = np.nan
-        pixels = np.full(n, -1, dtype=np.int64)
-        vis_frac = occlusion_from_boxes(amodal, cam_depth, camera.width, camera.height)
-        vis_frac[trunc >= 1.0] = 0.0
+    visible = clip_boxes(np.nan_to_num(amodal), camera.width, camera.height)
+    visible[trunc >= 1.0] = np.nan
+    pixels = np.full(n, -1, dtype=np.int64)
+    vis_frac = occlusion_from_boxes(amodal, cam_depth, camera.width, camera.height)
+    vis_frac[trunc >= 1.0] = 0.0
 
     cls = [a.identity.cls for a in agents]
     class_id = np.array([CLASS_ID.get(k, OBSTACLE_CLASS_ID) for k in cls], dtype=np.int64)
@@ -310,3 +293,63 @@ def compute_ground_truth(
         ettc=a.ettc,
         decel_req=a.decel_req,
     )
+
+
+def with_visibility(
+    gt: GroundTruth,
+    camera: CameraModel,
+    seg: np.ndarray,
+    depth: np.ndarray | None = None,
+    silhouettes: Silhouettes | None = None,
+    ground_depth: np.ndarray | None = None,
+) -> GroundTruth:
+    """``gt`` with visible boxes, pixel counts and visible fractions measured on a render.
+
+    Visible box and pixel count: the actor's pixels in ``seg`` (H, W) (actor ids).
+    Visible fraction = visible pixels / pixels of the actor's unoccluded silhouette, for
+    actors overlapped by a nearer actor's box or whose visible box is clearly smaller
+    than their in-image amodal box (IoU < 0.9); else 1 (0 without pixels).
+
+    The silhouette is the visible pixels plus those the actor covers when rendered alone
+    (``silhouettes(ids, window) -> seg``) where the frame shows something else that may
+    hide it: nearer than the actor's far side (``depth`` (H, W), m along the optical axis)
+    and above ground level (nearer than ``GROUND_LEVEL`` x ``ground_depth``, the flat
+    ground's depth, ``CameraModel.ground_depth``: road, kerbs and pavements never hide an
+    actor standing on them). Elsewhere the actor alone covers exactly its visible pixels,
+    so only the window of those pixels is rendered, and none when there are none. Without
+    ``depth`` / ``ground_depth`` those tests are skipped (more is rendered, same result);
+    without ``silhouettes`` the fractions stay 1.
+    """
+    n = len(gt)
+    amodal = np.nan_to_num(gt.amodal)
+    visible, pixels = mask_boxes(seg, gt.actor_id)
+    vis_frac = np.where(pixels > 0, 1.0, 0.0)
+    if n and silhouettes is not None:
+        in_img = gt.truncation < 1.0
+        cam_depth = camera.ego_to_camera(gt.box3d[:, :3])[:, 2]
+        ov = iou_matrix(amodal, amodal) > 0
+        nearer = cam_depth[None, :] < cam_depth[:, None]
+        occluded = in_img & (pixels > 0) & np.any(ov & nearer & in_img[None, :], axis=1)
+        clipped = clip_boxes(amodal, camera.width, camera.height)
+        shrunk = (pixels > 0) & (iou_matrix(np.nan_to_num(visible), clipped).diagonal() < 0.9)
+        corners = box_corners(gt.box3d[:, :3], gt.box3d[:, 3:6], gt.box3d[:, 6])
+        # the actor's far side (m along the optical axis), with room for EGL's 16-bit depth steps
+        far_side = camera.ego_to_camera(corners)[..., 2].max(axis=1) * 1.02 + 0.1
+        for k in np.nonzero(occluded | shrunk)[0]:
+            u0, v0 = (max(int(np.floor(c)) - 2, 0) for c in clipped[k, :2])
+            u1, v1 = int(np.ceil(clipped[k, 2])) + 2, int(np.ceil(clipped[k, 3])) + 2
+            others = seg[v0:v1, u0:u1] != gt.actor_id[k]
+            if depth is not None:
+                hider = depth[v0:v1, u0:u1] < far_side[k]
+                if ground_depth is not None:
+                    hider &= depth[v0:v1, u0:u1] < GROUND_LEVEL * ground_depth[v0:v1, u0:u1]
+                others &= hider
+            rows, cols = np.nonzero(others)
+            hidden = 0
+            if len(rows):
+                window = (u0 + int(cols.min()) - 1, v0 + int(rows.min()) - 1,
+                          u0 + int(cols.max()) + 2, v0 + int(rows.max()) + 2)
+                alone = silhouettes([int(gt.actor_id[k])], window)
+                hidden = np.count_nonzero((alone == gt.actor_id[k]) & (seg != gt.actor_id[k]))
+            vis_frac[k] = pixels[k] / (pixels[k] + hidden)
+    return replace(gt, visible=visible, pixels=pixels, visible_fraction=vis_frac)

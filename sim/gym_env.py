@@ -149,7 +149,7 @@ class LookaheadEnv(gymnasium.Env):
         # The env's AEB setting replaces the scenario's, and a collision ends the episode.
         ego = self.scenario.ego.model_copy(update={"aeb": self.aeb_config or False})
         sc = self.scenario.model_copy(update={"seed": int(seed), "ego": ego, "end_on_collision": True})
-        self.runner = Runner(sc, render=self.render_camera)
+        self.runner = Runner(sc, render=self.render_camera, overlap=False)  # stepped frame by frame
 
     def _accel_of(self, action: Any) -> float:
         if self.discrete:

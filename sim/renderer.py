@@ -33,9 +33,11 @@ import pybullet as p
 
 from lookahead.perception.camera import CameraModel
 from lookahead.sim.bullet import BulletClient, quiet_c_output
+from lookahead.sim.gl_camera import TINY_OFFSET, gl_projection, gl_projection_window, gl_view
 from lookahead.sim.layout import RoadLayout
 from lookahead.sim.scene import Scene, camera_world_pose, ground_colour
 from lookahead.sim.shapes import ActorShape
+from lookahead.sim.silhouettes import Silhouettes
 
 __all__ = ["RenderResult", "Renderer", "camera_world_pose", "gl_projection", "gl_view"]
 
@@ -44,6 +46,20 @@ log = logging.getLogger(__name__)
 # PyBullet clients holding the EGL plugin. The plugin keeps process-global GL state: a
 # second live instance leaves the first rendering empty frames, so only one may exist.
 _EGL_CLIENTS: set[int] = set()
+_EGL_LOADED: list[bool] = [False]  # the EGL plugin was loaded in this process (its GL threads may live on)
+
+
+def egl_in_use() -> bool:
+    """Whether an EGL renderer is open in this process (then no other may be)."""
+    return bool(_EGL_CLIENTS)
+
+
+def egl_loaded() -> bool:
+    """Whether the EGL plugin was ever loaded in this process: a fork of it may then hang in
+    GL (``sim.render_process`` starts its worker another way)."""
+    return _EGL_LOADED[0]
+
+
 
 
 @dataclass
@@ -59,42 +75,6 @@ class RenderResult:
     rgb: np.ndarray
     depth: np.ndarray
     seg: np.ndarray
-
-
-# ---------------------------------------------------------------------- matrices
-def gl_projection(
-    camera: CameraModel, near: float, far: float, offset: tuple[float, float] = (0.0, 0.0)
-) -> np.ndarray:
-    """4x4 OpenGL projection (GL camera: x right, y up, z back) equal to the pinhole K.
-
-    ``offset`` (du, dv) pixels is added to the principal point (rasteriser sampling fixes).
-    """
-    return _gl_projection(camera.K, camera.width, camera.height, near, far, offset)
-
-
-def _gl_projection(
-    K: np.ndarray, W: int, H: int, near: float, far: float, offset: tuple[float, float]
-) -> np.ndarray:
-    fx, fy, s = K[0, 0], K[1, 1], K[0, 1]
-    cx, cy = K[0, 2] + offset[0], K[1, 2] + offset[1]
-    return np.array(
-        [
-            [2 * fx / W, -2 * s / W, 1 - 2 * cx / W, 0.0],
-            [0.0, 2 * fy / H, 2 * cy / H - 1, 0.0],
-            [0.0, 0.0, -(far + near) / (far - near), -2 * far * near / (far - near)],
-            [0.0, 0.0, -1.0, 0.0],
-        ]
-    )
-
-
-def gl_view(camera: CameraModel, ego_pose: Sequence[float]) -> np.ndarray:
-    """4x4 OpenGL view matrix (world -> GL camera) for the camera on an ego at ``ego_pose``."""
-    centre, r_cw = camera_world_pose(camera, ego_pose)
-    r_gl = np.diag([1.0, -1.0, -1.0]) @ r_cw
-    v = np.eye(4)
-    v[:3, :3] = r_gl
-    v[:3, 3] = -r_gl @ centre
-    return v
 
 
 # ---------------------------------------------------------------------- renderer
@@ -139,11 +119,12 @@ class Renderer:
         )
         log.info("PyBullet renderer backend: %s (%dx%d)", self.backend, camera.width, camera.height)
         # TinyRenderer samples pixel corners rather than centres: shift by half a pixel.
-        self._offset = (-0.5, 0.5) if self.backend == "tiny" else (0.0, 0.0)
+        self._offset = TINY_OFFSET if self.backend == "tiny" else (0.0, 0.0)
         self._proj = tuple(gl_projection(camera, self.near, self.far, self._offset).T.ravel().tolist())
         self._warm = False
         self._bg_rgb, self._bg_depth = self._background()
         self.scene = Scene(self._client, camera, layout, self.seed, self.far, self.backend)
+        self._silhouettes = Silhouettes(camera, layout, self.seed, self.near, self.far)
 
     # ------------------------------------------------------------------ backend
     def _resolve_backend(self, backend: str) -> str:
@@ -177,6 +158,7 @@ class Renderer:
                 raise RuntimeError("loading _eglRendererPlugin failed")
             self._client.plugin = plugin
             _EGL_CLIENTS.add(self._client.cid)
+            _EGL_LOADED[0] = True
             eye = np.eye(4).ravel().tolist()
             proj = gl_projection(self.camera, self.near, self.far).T.ravel().tolist()
             out = p.getCameraImage(
@@ -198,8 +180,7 @@ class Renderer:
         u, v = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
         uv = np.stack([u, v], axis=-1)
         rays = cam.pixel_rays(uv)
-        ground = cam.ground_points(uv)
-        z = cam.ego_to_camera(ground)[..., 2]
+        z = cam.ground_depth()
         hit = np.isfinite(z)
         elev = np.arcsin(np.clip(rays[..., 2], -1.0, 1.0))[..., None]
         top, horizon = np.array([70, 120, 190.0]), np.array([190, 210, 228.0])
@@ -216,10 +197,12 @@ class Renderer:
     def add_actor(self, actor_id: int, shape: ActorShape) -> None:
         """Create the body of actor ``actor_id`` (hidden until rendered with a pose)."""
         self.scene.add_actor(actor_id, shape)
+        self._silhouettes.add_actor(actor_id, shape)
 
     def remove_actor(self, actor_id: int) -> None:
         """Delete actor ``actor_id``'s body; unknown ids are ignored."""
         self.scene.remove_actor(actor_id)
+        self._silhouettes.remove_actor(actor_id)
 
     def ground_z(self, xy: np.ndarray) -> np.ndarray:
         """Surface height (m) under world points ``xy`` (N, 2) where actors are drawn."""
@@ -250,12 +233,7 @@ class Renderer:
                 return self._capture(ego_pose, window)
         width, height, proj = self.camera.width, self.camera.height, self._proj
         if window is not None:
-            u0, v0, u1, v1 = window
-            width, height = u1 - u0, v1 - v0
-            K = self.camera.K.copy()
-            K[0, 2] -= u0
-            K[1, 2] -= v0
-            proj = tuple(_gl_projection(K, width, height, self.near, self.far, self._offset).T.ravel().tolist())
+            width, height, proj = gl_projection_window(self.camera, window, self.near, self.far, self._offset)
         return p.getCameraImage(
             width,
             height,
@@ -303,36 +281,23 @@ class Renderer:
         self, ego_pose: Sequence[float], actors: Mapping[int, Sequence[float]], ids: Sequence[int],
         window: tuple[int, int, int, int] | None = None,
     ) -> np.ndarray:
-        """(H, W) int32 segmentation of a frame with ONLY actors ``ids`` (no other actors,
-        no roadside structures; the ground stays): their unoccluded silhouettes.
-
-        ``window`` (u0, v0, u1, v1) px renders only that part of the frame (the rest is
-        background, -1): enough when it holds the actors' boxes, and much cheaper."""
-        self.scene.place_actors({i: actors[i] for i in ids})
-        self.scene.show_scenery(ego_pose, structures=False)
-        W, H = self.camera.width, self.camera.height
-        if window is not None:
-            u0, v0, u1, v1 = (int(v) for v in window)
-            u0, v0, u1, v1 = max(u0, 0), max(v0, 0), min(u1, W), min(v1, H)
-            if u1 - u0 < 1 or v1 - v0 < 1:
-                return np.full((H, W), -1, dtype=np.int32)
-            if (u0, v0, u1, v1) != (0, 0, W, H):
-                out = self._capture(ego_pose, (u0, v0, u1, v1))
-                crop = np.asarray(out[4], dtype=np.int32).reshape(v1 - v0, u1 - u0)
-                seg = np.full((H, W), -1, dtype=np.int32)
-                seg[v0:v1, u0:u1] = self.scene.actor_ids(crop)
-                return seg
-        out = self._capture(ego_pose)
-        return self.scene.actor_ids(self._shape(out[4], np.int32)[..., 0])
+        """(H, W) int32 segmentation of a frame with ONLY actors ``ids`` (no other actors and no
+        static scene): their unoccluded silhouettes, -1 elsewhere; ``window`` (u0, v0, u1, v1)
+        px renders only that part (the same pixels there). Drawn by ``sim.silhouettes``
+        (TinyRenderer, each actor alone in a client of its own), whatever the backend."""
+        return self._silhouettes(ego_pose, actors, ids, window)
 
     def close(self) -> None:
-        """Disconnect the PyBullet client (idempotent)."""
+        """Disconnect the PyBullet clients (idempotent)."""
         self._close_client()
 
     def _close_client(self) -> None:
         """Give back the EGL slot (if this client held it), unload the plugin, disconnect."""
         _EGL_CLIENTS.discard(self._client.cid)
         self._client.close()
+        silhouettes = getattr(self, "_silhouettes", None)  # absent while __init__ falls back
+        if silhouettes is not None:
+            silhouettes.close()
 
     def __enter__(self) -> Renderer:
         return self

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -39,15 +40,16 @@ from lookahead.perception.tracker import Tracks
 from lookahead.sim.aeb import Aeb
 from lookahead.sim.driver import Driver, combine_brakes
 from lookahead.sim.ego import Collision
-from lookahead.sim.groundtruth import GroundTruth, compute_ground_truth
+from lookahead.sim.groundtruth import GroundTruth, with_visibility, world_truth
 from lookahead.sim.records import Sink, TickRecord
 from lookahead.sim.scenario import Scenario, ScenarioError, mounted_camera
-from lookahead.sim.weather import Weather
 from lookahead.sim.world import World
 
 log = logging.getLogger(__name__)
 
 
+OVERLAP_DETECTOR_THREADS = 1  # inference threads while the render worker draws the next frame (DetectorSpec.threads auto)
+RENDER_WORKER_GL_THREADS = 1  # llvmpipe threads of the render worker then (LP_NUM_THREADS, unless set)
 STAGES = ("sim", "render", "gt", "preprocess", "detect", "track", "estimate", "intent", "sinks", "tick")
 
 
@@ -97,6 +99,32 @@ class Perceived:
 
 
 @dataclass
+class _Snapshot:
+    """One camera frame on its way through the loop: the world at its tick (``_snapshot``),
+    asked of the render worker (``_request``), then its images and visibility (``_develop``)."""
+
+    frame: Frame  # image, depth, segmentation: None until developed
+    pose: tuple[float, float, float]  # ego (x, y, heading), world (m, rad)
+    poses: dict[int, tuple[float, float, float, float]]  # actor id -> world (x, y, heading, gait phase)
+    gt: GroundTruth  # world truth; with measured visibility once developed
+    ego: dict  # the record's ego entry
+    collisions: list[Collision]  # ego collisions since the previous frame
+    timings: dict[str, float]  # ms per stage
+
+
+@dataclass
+class _Decision:
+    """What the AEB and the driver are told about one perceived frame, and when."""
+
+    acts: int  # frame index at whose tick it is handed over (the frame's + latency)
+    t: float  # s, that frame's time
+    critical_in_path: bool
+    nearest_in_path: float  # m
+    ego_speed: float  # m/s at the perceived frame
+    fcw: bool
+
+
+@dataclass
 class StepResult:
     """What one ``Runner.step`` did."""
 
@@ -116,6 +144,7 @@ class RunSummary:
     ended_on_collision: bool = False
     renderer: str | None = None
     error: str | None = None  # "Type: message" of an exception that ended the run early
+    overlapped: int = 0  # frames rendered while the previous frame was perceived (``Runner.run``)
 
     def to_dict(self) -> dict:
         return {
@@ -125,6 +154,7 @@ class RunSummary:
             "collisions": [c.to_dict() for c in self.collisions],
             "ended_on_collision": self.ended_on_collision,
             "renderer": self.renderer,
+            "overlapped": self.overlapped,
             "error": self.error,
         }
 
@@ -145,32 +175,38 @@ class Runner:
         detector: Detector | None = None,
         intent_config: IntentConfig | None = None,
         renderer_backend: str | None = None,
+        overlap: bool = True,
     ) -> None:
         self.scenario = scenario
         self.sinks = list(sinks)
         self.world = World(scenario)
         self.camera = camera_from_scenario(scenario)
         self.intent_config = intent_config or IntentConfig().with_overrides(scenario.intent)
+        perception = scenario.perception
+        if render and overlap and perception.detector.threads == 0:  # auto: the other core renders
+            perception = perception.model_copy(
+                update={"detector": perception.detector.model_copy(update={"threads": OVERLAP_DETECTOR_THREADS})})
         with _as_scenario_error():
             self.perception = build_stack(
-                scenario.perception, self.camera, scenario.camera.rate, intent=self.intent_config,
+                perception, self.camera, scenario.camera.rate, intent=self.intent_config,
                 alerts=scenario.alerts, detector=detector, seed=scenario.seed, render=render,
             )
-        self.renderer = None
-        self.weather = None  # sim.weather.Weather: applied to the rendered RGB (not clear)
+        self.renderer = None  # sim.render_process.RenderProcess: the renderer in its worker process
+        self.silhouettes = None  # sim.silhouettes.Silhouettes: actors alone, for ground truth's visibility
+        self.ground_depth = None  # (H, W) m, the flat ground's depth per pixel (ground truth's visibility)
         if render:
-            from lookahead.sim.renderer import Renderer  # lazy: PyBullet only when rendering
+            # lazy: PyBullet only when rendering
+            from lookahead.sim.render_process import RenderProcess
+            from lookahead.sim.silhouettes import Silhouettes
 
-            self.renderer = Renderer(
-                self.camera, self.world.layout, seed=scenario.seed,
-                backend=renderer_backend or scenario.camera.renderer,
-            )
-            for a in self.world.agents:
-                self.renderer.add_actor(a.identity.actor_id, a.identity.shape)
-            if scenario.weather.kind != "clear":
-                self.weather = Weather.from_scenario(
-                    scenario, self.camera, self.world.layout, far=self.renderer.far
-                )
+            backend = renderer_backend or scenario.camera.renderer  # auto: the faster here (measured once)
+            shapes = {a.identity.actor_id: a.identity.shape for a in self.world.agents}
+            self.renderer = RenderProcess(self.camera, self.world.layout, scenario.seed, backend, shapes, scenario,
+                                          gl_threads=RENDER_WORKER_GL_THREADS if overlap else None)
+            self.silhouettes = Silhouettes(self.camera, self.world.layout, scenario.seed, far=self.renderer.far)
+            for actor_id, shape in shapes.items():
+                self.silhouettes.add_actor(actor_id, shape)
+            self.ground_depth = self.camera.ground_depth().astype(np.float32)
         self.aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
         self.driver = Driver(scenario.ego.driver) if scenario.ego.driver is not None else None
         self.driver_brake: float | None = None  # the driver's brake command (m/s^2) of the last tick
@@ -178,6 +214,11 @@ class Runner:
         self.frame_every = max(1, int(round(scenario.rate / scenario.camera.rate)))  # world ticks per frame
         self.n_ticks = int(round(scenario.duration * scenario.rate))  # world ticks of the whole run
         self.frame_index = 0  # index of the next camera frame
+        self.frames_recorded = 0  # frames handed to the sinks
+        self.latency = scenario.perception.latency  # frames from a frame to its decisions acting
+        self.overlap = overlap
+        self._decisions: deque[_Decision] = deque()  # perceived, not yet handed to the AEB / driver
+        self._sim_ms = 0.0  # ms stepping the world since the last frame
 
     def _poses(self) -> dict[int, tuple[float, float, float, float]]:
         st = self.world.agent_states()
@@ -186,79 +227,119 @@ class Runner:
             for i, (x, y), h, p in zip(st.ids, st.xy, st.yaw, st.gait_phase, strict=True)
         }
 
-    def frame(self) -> tuple[Frame, GroundTruth, dict[str, float]]:
-        """Render (if on) and compute ground truth for the world's current state."""
-        timings: dict[str, float] = {}
+    # ------------------------------------------------------------------ one frame, in stages
+    def _snapshot(self, collisions: Sequence[Collision] = (), sim_ms: float = 0.0) -> _Snapshot:
+        """The world at the current tick as the next camera frame, before it is rendered:
+        poses, the ego's record, the world's ground truth (``world_truth``). Advances ``frame_index``."""
         w = self.world
-        image = depth = seg = None
-        silhouettes: Callable | None = None
         t0 = time.perf_counter()
+        gt = world_truth(w, self.camera, self.intent_config)
+        x, y, yaw = w.ego_pose()
+        ego = {"x": x, "y": y, "yaw": yaw, **w.odometry.to_dict(), "brake": w.ego.brake_command}
+        if self.aeb is not None:  # only with the AEB on: runs without it record exactly as before
+            ego["aeb_brake"] = self.aeb_brake
+        if self.driver is not None:  # only with a driver: runs without one record exactly as before
+            ego["driver_brake"] = self.driver_brake
+        frame = Frame(tick=w.tick, t=w.t, camera=self.camera, odometry=w.odometry, index=self.frame_index)
+        self.frame_index += 1
+        timings = {"sim": sim_ms, "gt": (time.perf_counter() - t0) * 1e3}
+        return _Snapshot(frame, (x, y, yaw), self._poses(), gt, ego, list(collisions), timings)
+
+    def _request(self, snap: _Snapshot) -> None:
+        """Ask the render worker for ``snap``'s frame (if rendering); ``_develop`` collects it."""
         if self.renderer is not None:
-            pose = w.ego_pose()
-            poses = self._poses()
-            out = self.renderer.render(pose, poses)
-            image, depth, seg = out.rgb, out.depth, out.seg
-            if self.weather is not None:  # only the image: depth, seg and ground truth stay exact
-                image = self.weather.apply(image, depth, self.frame_index, pose)
+            self.renderer.submit(snap.frame.index, snap.pose, snap.poses)
 
-            def silhouettes(ids: list[int], window: tuple[int, int, int, int] | None = None) -> np.ndarray:
-                return self.renderer.silhouettes(pose, poses, ids, window)
+    def _develop(self, snap: _Snapshot) -> _Snapshot:
+        """Collect ``snap``'s frame from the render worker (asked by ``_request``): the image
+        (with weather), depth and segmentation, then the ground truth's visibility
+        (``with_visibility``). Timings: ``render``, the worker's ms (render and weather); ``gt``
+        gains the visibility's."""
+        if self.renderer is None:
+            snap.timings["render"] = 0.0
+            return snap
+        image, depth, seg, worker_ms = self.renderer.result()
+        t0 = time.perf_counter()
+        silhouettes = self.silhouettes
 
-        t1 = time.perf_counter()
-        gt = compute_ground_truth(w, self.camera, self.intent_config, seg=seg, silhouettes=silhouettes)
-        t2 = time.perf_counter()
-        timings["render"] = (t1 - t0) * 1e3
-        timings["gt"] = (t2 - t1) * 1e3
-        frame = Frame(
-            tick=w.tick, t=w.t, camera=self.camera, odometry=w.odometry,
-            image=image, depth=depth, segmentation=seg, index=self.frame_index,
+        def alone(ids: list[int], window: tuple[int, int, int, int]) -> np.ndarray:
+            return silhouettes(snap.pose, snap.poses, ids, window)
+
+        snap.gt = with_visibility(snap.gt, self.camera, seg, depth, alone, self.ground_depth)
+        snap.frame.image, snap.frame.depth, snap.frame.segmentation = image, depth, seg
+        snap.timings["render"] = worker_ms
+        snap.timings["gt"] += (time.perf_counter() - t0) * 1e3
+        return snap
+
+    def frame(self) -> tuple[Frame, GroundTruth, dict[str, float]]:
+        """Render (if on) and compute ground truth for the world's current state (advances
+        ``frame_index``; records nothing). Timings (ms): ``render``, ``gt``."""
+        snap = self._snapshot()
+        self._request(snap)
+        self._develop(snap)
+        return snap.frame, snap.gt, {k: snap.timings[k] for k in ("render", "gt")}
+
+    def _perceive(self, snap: _Snapshot) -> Perceived:
+        """``snap`` (developed) through the perception stack; queues the AEB's and the driver's
+        decision on it, to act ``latency`` frames later, and hands over those due now
+        (``_apply_decisions``)."""
+        frame, timings = snap.frame, snap.timings
+        dets, tracks, est, assessment, alerts = self.perception.process(
+            frame, detector_truth(snap.gt, self.camera), timings
         )
-        return frame, gt, timings
+        if self.aeb is not None or self.driver is not None:
+            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
+            fcw = alert_in_path(self.perception.alerts.active(), tracks.track_id.tolist(),
+                                assessment.in_path.tolist(), Risk.HIGH)
+            acts = frame.index + self.latency  # the frame whose tick the decision is made at
+            t = (frame.tick + self.latency * self.frame_every) * self.world.dt
+            self._decisions.append(_Decision(acts, t, crit, nearest, frame.odometry.speed, fcw))
+            self._apply_decisions()
+        return Perceived(frame, snap.gt, dets, tracks, est, assessment, alerts, timings)
 
-    def run(self, progress: Callable[[float], None] | None = None) -> RunSummary:
-        """Step to the end (the duration, or a collision with ``end_on_collision``); ``progress``
-        gets the fraction of the duration done after every step. Sinks get ``on_start``, every
-        frame and ``on_end`` (also when an exception ends the run: its ``error``); closes the runner."""
-        sc = self.scenario
-        info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
-                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera}
+    def _record(self, snap: _Snapshot, p: Perceived, t_start: float) -> None:
+        """``p`` as a ``TickRecord`` to every sink; ``tick`` timing = sim + everything since ``t_start``."""
+        timings = p.timings
+        record = TickRecord(
+            tick=snap.frame.tick, frame_index=snap.frame.index, t=snap.frame.t, ego=snap.ego, frame=p.frame,
+            ground_truth=p.gt, detections=p.detections, tracks=p.tracks, estimates=p.est,
+            assessments=p.assessment, alerts=p.alerts, collisions=snap.collisions, timings=timings,
+        )
+        t0 = time.perf_counter()
         for s in self.sinks:
-            s.on_start(info)
-        summary = RunSummary(0, 0, 0.0, renderer=info["renderer"])
-        try:
-            while self.world.tick < self.n_ticks:
-                result = self.step()
-                if progress is not None:
-                    progress(self.world.t / sc.duration)
-                if result.ended_on_collision:
-                    summary.ended_on_collision = True
-                    break
-        except BaseException as e:  # told to the sinks (an incomplete run), then re-raised
-            summary.error = f"{type(e).__name__}: {e}".rstrip(": ")
-            raise
-        finally:
-            summary.ticks, summary.frames, summary.t_end = self.world.tick, self.frame_index, self.world.t
-            summary.collisions = list(self.world.collisions)
-            for s in self.sinks:
-                s.on_end(summary.to_dict())
-            self.close()
-        return summary
+            s.on_tick(record)
+        self.frames_recorded += 1
+        timings["sinks"] = (time.perf_counter() - t0) * 1e3
+        timings["tick"] = timings["sim"] + (time.perf_counter() - t_start) * 1e3
 
-    def step(self, accel: float | None = None) -> StepResult:
-        """Advance to the next camera frame and ``observe`` it.
+    def _apply_decisions(self) -> None:
+        """Hand the AEB and the driver every queued decision due at the world's current frame."""
+        while self._decisions and self._decisions[0].acts <= self.frame_index - 1:
+            d = self._decisions.popleft()
+            if self.aeb is not None:
+                self.aeb.decide(d.t, d.critical_in_path, d.nearest_in_path, d.ego_speed)
+            if self.driver is not None:
+                self.driver.decide(d.t, d.fcw)
 
-        World ticks, each the brake command (the AEB's or the driver's, the stronger) then
-        ``World.step``, until a frame tick (``tick % frame_every == 0``) or a collision that ends
-        the run (``end_on_collision``), which are observed, or the run's last tick (``n_ticks``)
-        between frames, which is not.
+    def _may_run_ahead(self) -> bool:
+        """Whether the world may step to the next frame before the current frame is perceived
+        without changing the run: its decision acts at a later frame (``latency`` >= 1), or
+        no decision on it can change a brake command before the next frame: no AEB or it is
+        idle and engages only ``latency`` s after deciding, at least a frame period (a
+        braking AEB may release at once); no driver, or one whose reaction takes a frame
+        period, or who brakes already (later warnings change nothing)."""
+        if self.latency >= 1:
+            return True
+        period = (self.frame_every - 0.5) * self.world.dt  # commands are read at ticks before the next frame
+        aeb_ok = self.aeb is None or (self.aeb.state == "idle" and self.aeb.config.latency >= period)
+        driver_ok = self.driver is None or self.driver.braking or self.driver.config.reaction_s >= period
+        return aeb_ok and driver_ok
 
-        Args:
-            accel: the ego's longitudinal acceleration (m/s^2) for these ticks, replacing its
-                controller (``EgoVehicle.accel_command``; the AEB still overrides it); None = the
-                scenario's controller.
-        """
+    def _advance(self) -> tuple[StepResult, bool]:
+        """World ticks, each the brake command (the AEB's or the driver's, the stronger) then
+        ``World.step``, until a frame tick or a collision that ends the run (True: the caller
+        observes the frame; ``perceived`` is None) or the last tick between frames (False)."""
         w = self.world
-        w.ego.accel_command = accel
         collisions: list[Collision] = []
         sim_ms, ticks = 0.0, 0
         while w.tick < self.n_ticks:
@@ -272,61 +353,109 @@ class Runner:
             ticks += 1
             ended = bool(collisions) and self.scenario.end_on_collision
             if w.tick % self.frame_every == 0 or ended:
-                perceived = self.observe(collisions, sim_ms)
-                return StepResult(perceived, collisions, ticks, ended, ended or w.tick >= self.n_ticks)
-        return StepResult(None, collisions, ticks, False, True)
+                self._sim_ms = sim_ms
+                return StepResult(None, collisions, ticks, ended, ended or w.tick >= self.n_ticks), True
+        return StepResult(None, collisions, ticks, False, True), False
+
+    # ------------------------------------------------------------------ running
+    def run(self, progress: Callable[[float], None] | None = None) -> RunSummary:
+        """Step to the end (the duration, or a collision with ``end_on_collision``); ``progress``
+        gets the fraction of the duration done after every frame. Sinks get ``on_start``, every
+        frame and ``on_end`` (also when an exception ends the run: its ``error``); closes the runner.
+
+        With rendering and ``overlap``, the render worker (``sim.render_process``) draws frame
+        k+1 while frame k is perceived, whenever the world may run ahead (``_may_run_ahead``);
+        the records are the same as without overlap."""
+        sc = self.scenario
+        info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
+                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera,
+                "latency_frames": self.latency, "latency_s": round(self.latency * self.frame_every * self.world.dt, 6)}
+        for s in self.sinks:
+            s.on_start(info)
+        summary = RunSummary(0, 0, 0.0, renderer=info["renderer"])
+        overlap = self.overlap and self.renderer is not None
+        pending: tuple[_Snapshot, float] | None = None  # asked of the render worker, not yet perceived
+
+        def finish() -> None:
+            nonlocal pending
+            if pending is not None:
+                snap, t_start = pending
+                pending = None
+                self._record(snap, self._perceive(self._develop(snap)), t_start)
+
+        try:
+            while self.world.tick < self.n_ticks:
+                if pending is not None and (not overlap or not self._may_run_ahead()):
+                    finish()
+                self._apply_decisions()
+                self.world.ego.accel_command = None
+                result, framed = self._advance()
+                if not framed:
+                    break
+                t_start = time.perf_counter()
+                snap = self._snapshot(result.collisions, self._sim_ms)
+                self._request(snap)  # rendered by the worker while the previous frame is perceived
+                summary.overlapped += pending is not None and self.renderer is not None
+                finish()
+                pending = (snap, t_start)
+                if progress is not None:
+                    progress(self.world.t / sc.duration)
+                if result.ended_on_collision:
+                    summary.ended_on_collision = True
+                    break
+            finish()
+        except BaseException as e:  # told to the sinks (an incomplete run), then re-raised
+            summary.error = f"{type(e).__name__}: {e}".rstrip(": ")
+            raise
+        finally:
+            summary.ticks, summary.frames, summary.t_end = self.world.tick, self.frames_recorded, self.world.t
+            summary.collisions = list(self.world.collisions)
+            for s in self.sinks:
+                s.on_end(summary.to_dict())
+            self.close()
+        return summary
+
+    def step(self, accel: float | None = None) -> StepResult:
+        """Advance to the next camera frame and ``observe`` it.
+
+        First the AEB and the driver get the decisions due at the current frame (those on
+        the frame ``latency`` frames back). Then world ticks, each the brake command (the
+        AEB's or the driver's, the stronger) then ``World.step``, until a frame tick
+        (``tick % frame_every == 0``) or a collision that ends the run (``end_on_collision``),
+        which are observed, or the run's last tick (``n_ticks``) between frames, which is not.
+
+        Args:
+            accel: the ego's longitudinal acceleration (m/s^2) for these ticks, replacing its
+                controller (``EgoVehicle.accel_command``; the AEB still overrides it); None = the
+                scenario's controller.
+        """
+        self._apply_decisions()
+        self.world.ego.accel_command = accel
+        result, framed = self._advance()
+        if not framed:
+            return result
+        result.perceived = self.observe(result.collisions, self._sim_ms)
+        return result
 
     def observe(self, collisions: Sequence[Collision] = (), sim_ms: float = 0.0) -> Perceived:
-        """The world's current state as the next camera frame: perceived (``perceive``), recorded
-        to every sink as a ``TickRecord``; advances ``frame_index``.
+        """The world's current state as the next camera frame: rendered, perceived, recorded to
+        every sink as a ``TickRecord``; advances ``frame_index``.
 
         Args:
             collisions: ego collisions since the previous frame (they go into the record).
             sim_ms: time spent stepping the world since the previous frame (ms, stage ``sim``).
         """
         t_start = time.perf_counter()
-        p = self.perceive()
-        frame, timings = p.frame, p.timings
-        timings["sim"] = sim_ms
-        w = self.world
-        x, y, yaw = w.ego_pose()
-        ego = {"x": x, "y": y, "yaw": yaw, **w.odometry.to_dict(),
-               "brake": w.ego.brake_command}
-        if self.aeb is not None:  # only with the AEB on: runs without it record exactly as before
-            ego["aeb_brake"] = self.aeb_brake
-        if self.driver is not None:  # only with a driver: runs without one record exactly as before
-            ego["driver_brake"] = self.driver_brake
-        record = TickRecord(
-            tick=w.tick, frame_index=self.frame_index, t=w.t, ego=ego, frame=frame,
-            ground_truth=p.gt, detections=p.detections, tracks=p.tracks, estimates=p.est,
-            assessments=p.assessment, alerts=p.alerts, collisions=list(collisions), timings=timings,
-        )
-        t0 = time.perf_counter()
-        for s in self.sinks:
-            s.on_tick(record)
-        timings["sinks"] = (time.perf_counter() - t0) * 1e3
-        timings["tick"] = sim_ms + (time.perf_counter() - t_start) * 1e3
-        self.frame_index += 1
+        snap = self._snapshot(collisions, sim_ms)
+        self._request(snap)
+        p = self._perceive(self._develop(snap))
+        self._record(snap, p, t_start)
         return p
-
-    def perceive(self) -> Perceived:
-        """The current camera frame through the perception stack, and the AEB's decision on it.
-
-        Records nothing and leaves ``frame_index`` alone: ``observe`` does both."""
-        frame, gt, timings = self.frame()
-        dets, tracks, est, assessment, alerts = self.perception.process(
-            frame, detector_truth(gt, self.camera), timings
-        )
-        if self.aeb is not None:
-            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
-            self.aeb.decide(frame.t, crit, nearest, frame.odometry.speed)
-        if self.driver is not None:
-            fcw = alert_in_path(self.perception.alerts.active(), tracks.track_id.tolist(),
-                                assessment.in_path.tolist(), Risk.HIGH)
-            self.driver.decide(frame.t, fcw)
-        return Perceived(frame, gt, dets, tracks, est, assessment, alerts, timings)
 
     def close(self) -> None:
         if self.renderer is not None:
             self.renderer.close()
             self.renderer = None
+        if self.silhouettes is not None:
+            self.silhouettes.close()
+            self.silhouettes = None

@@ -300,10 +300,13 @@ class Scene:
         far: how far (m) scenery is drawn (the renderer's far plane).
         backend: the renderer's backend, "egl" or "tiny" (TinyRenderer gets short
             surface tiles).
+        static: build the road and the roadside scenery; False: actors only (the
+            renderer's silhouette scene).
     """
 
     def __init__(
-        self, client: BulletClient, camera: CameraModel, layout: RoadLayout, seed: int, far: float, backend: str
+        self, client: BulletClient, camera: CameraModel, layout: RoadLayout, seed: int, far: float, backend: str,
+        static: bool = True,
     ) -> None:
         self._client, self.camera, self.layout = client, camera, layout
         self.seed, self.far, self.backend = int(seed), float(far), backend
@@ -316,9 +319,15 @@ class Scene:
         self._fan = np.linspace(-1.0, 1.0, 9) * min(half_fov + 0.05, np.pi)
         self._extents: dict[float, np.ndarray] = {}
         self._pools: list[_Pool] = []  # ground-level rows (kept in silhouettes)
-        self._structures: list[_Pool] = []  # roadside structures (hidden in silhouettes)
-        self._build()
+        self._structures: list[_Pool] = []  # roadside structures (hidden without structures)
+        if static:
+            self._build()
         self._grow_lut(p.getNumBodies(physicsClientId=self._client.cid) + 1)
+
+    @property
+    def client(self) -> BulletClient:
+        """The PyBullet client the scene's bodies live in."""
+        return self._client
 
     # ------------------------------------------------------------------ static scene
     def _rng(self, *key: int) -> np.random.Generator:

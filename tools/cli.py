@@ -1256,7 +1256,9 @@ def bench_all(
 
     result = run_bench(repeats=repeats)
     save_bench(result, out)
-    console.print(f"full loop: {result['loop_fps']:.1f} frames/s", highlight=False)
+    console.print(f"full loop: {result['loop_fps']:.1f} frames/s overlapped, {result['loop_fps_sequential']:.1f}"
+                  f" stage by stage (slowest stage group: {result['loop_slowest_stage_group']};"
+                  f" renderer {result['renderer']})", highlight=False)
 
 
 @bench_app.command("detect")
@@ -1385,11 +1387,12 @@ def bench_sweep(
     sweep_file: Annotated[Path, typer.Option("--sweep", help="sweep YAML (16 variants)", parser=catalogue_path)] = Path("sweeps/aeb_stationary_car"),
     variants: Annotated[int | None, typer.Option(min=1, help="use only the first N variants")] = None,
     repeats: Annotated[int, typer.Option(min=1, help="timed sweeps per worker count")] = 1,
+    ray: Annotated[bool, typer.Option("--ray/--no-ray", help="also run it on a local Ray instance")] = True,
 ) -> None:
-    """Wall time of one sweep on 1 worker and on 2 workers (warm pools, rendering off)."""
+    """Wall time of one sweep on 1 worker, on 2 workers and on a local Ray instance (warm workers, rendering off)."""
     from lookahead.tools.bench.sweep import bench_sweep as run_bench
 
-    result = run_bench(sweep_file, variants=variants, repeats=repeats)
+    result = run_bench(sweep_file, variants=variants, repeats=repeats, ray=ray)
     save_bench(result, out)
 
 

@@ -60,7 +60,8 @@ def rendered():
     pre = PreprocessConfig.model_validate({"chain": FULL["chain"], "device": "cpu"})
     sc = sc.model_copy(update={
         "duration": 0.35,
-        "camera": sc.camera.model_copy(update={"width": 320, "height": 180}),
+        # EGL's shading, as the shipped scenarios render at 640x360 (auto may pick TinyRenderer at this size)
+        "camera": sc.camera.model_copy(update={"width": 320, "height": 180, "renderer": "egl"}),
         "perception": sc.perception.model_copy(
             update={"preprocess": pre, "detector": DetectorSpec(kind="gt")}  # no model file needed
         ),

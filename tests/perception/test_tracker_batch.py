@@ -6,6 +6,9 @@ filterpy's ``predict``/``update`` per filter; the batched code must agree to 1e-
 
 from __future__ import annotations
 
+import copy
+import pickle
+
 import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter
@@ -21,13 +24,18 @@ from lookahead.perception.tracker import (
     TrackerConfig,
     _cxcywh,
     _iou,
+    box_block_initial_state,
+    box_filters_predict,
+    box_filters_update,
     box_predict,
     box_update,
     cxcywh_to_xyxy,
+    kf_block,
     kf_initial_state,
     kf_measurement_noise,
     kf_predict,
     kf_process_noise,
+    kf_unblock,
     kf_update,
     xyxy_to_cxcywh,
 )
@@ -77,6 +85,24 @@ class RefBox:
 def random_boxes(rng: np.random.Generator, n: int) -> np.ndarray:
     return np.column_stack([rng.uniform(0, 1000, (n, 2)), rng.uniform(2.0, 300.0, (n, 2))])
 
+
+
+def noisy_sightings(rng: np.random.Generator, boxes: np.ndarray, frames: int = 60):
+    """Per frame, the rows seen (60 %) and their noisy cxcywh boxes, for boxes moving at random
+    rates; the first three shrink and are seen for 5 frames only, then coast (the size guards)."""
+    n = len(boxes)
+    rate = np.column_stack([rng.normal(0, 8, (n, 2)), rng.normal(0, 3, (n, 2))])
+    rate[:3, 2:] = -boxes[:3, 2:] / 6.0
+    truth = boxes.copy()
+    for t in range(frames):
+        truth += rate
+        truth[:, 2:] = np.maximum(truth[:, 2:], 0.5)
+        seen = rng.random(n) < 0.6
+        seen[:3] = t < 5
+        rows = np.flatnonzero(seen)
+        z = truth[rows] + rng.normal(0, 2, (len(rows), 4))
+        z[:, 2:] = np.abs(z[:, 2:]) + 0.1
+        yield rows, z
 
 def test_fast_box_helpers_are_bit_identical() -> None:
     """The tracker's internal box conversions and IoU give exactly the public helpers' results."""
@@ -142,20 +168,10 @@ def test_box_filter_matches_filterpy_per_track(seed: int) -> None:
     refs = [RefBox(b) for b in boxes]
     np.testing.assert_array_equal(x, np.array([r.kf.x[:, 0] for r in refs]))
     np.testing.assert_array_equal(P, np.array([r.kf.P for r in refs]))
-    truth = boxes.copy()
-    rate = np.column_stack([rng.normal(0, 8, (n, 2)), rng.normal(0, 3, (n, 2))])
-    rate[:3, 2:] = -truth[:3, 2:] / 6.0  # these shrink, then coast: exercises the size guards
-    for t in range(60):
+    for rows, z in noisy_sightings(rng, boxes):
         box_predict(x, P, Q_WEIGHTS)
         for r in refs:
             r.predict()
-        truth += rate
-        truth[:, 2:] = np.maximum(truth[:, 2:], 0.5)
-        seen = rng.random(n) < 0.6
-        seen[:3] = t < 5
-        rows = np.flatnonzero(seen)
-        z = truth[rows] + rng.normal(0, 2, (len(rows), 4))
-        z[:, 2:] = np.abs(z[:, 2:]) + 0.1
         if len(rows):
             x[rows], P[rows] = box_update(x[rows], P[rows], z, WP)
         for j, i in enumerate(rows):
@@ -211,3 +227,65 @@ def test_tracker_outputs_follow_per_track_filterpy() -> None:
             np.testing.assert_allclose(out.xyxy[i], np.concatenate([c - wh / 2, c + wh / 2]), **TOL)
             np.testing.assert_allclose(out.velocity_px[i], ref.x[4:, 0] * 10.0, **TOL)
     assert tracker.num_tracks > 16  # the track table grew past its initial capacity
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_block_filters_are_bit_identical_to_box_filters(seed: int) -> None:
+    """The tracker's filters (covariance blocks, one filter per column) give exactly the results of
+    box_predict / box_update on full (8, 8) covariances, size guards included."""
+    rng = np.random.default_rng(200 + seed)
+    n = 12
+    boxes = random_boxes(rng, n)
+    x, P = kf_initial_state(boxes, P_WEIGHTS)
+    xb, Pb = box_block_initial_state(boxes, P_WEIGHTS)
+    np.testing.assert_array_equal(xb, x)
+    np.testing.assert_array_equal(kf_unblock(Pb), P)
+    np.testing.assert_array_equal(kf_block(P), Pb)
+    T = np.concatenate([xb, Pb.reshape(n, 16)], axis=1).T.copy()  # filters as columns
+    for rows, z in noisy_sightings(rng, boxes):
+        box_predict(x, P, Q_WEIGHTS)
+        box_filters_predict(T, Q_WEIGHTS)
+        np.testing.assert_array_equal(T[:8].T, x)
+        np.testing.assert_array_equal(kf_unblock(T[8:].T.reshape(n, 2, 2, 4)), P)
+        if len(rows):
+            x[rows], P[rows] = box_update(x[rows], P[rows], z, WP)
+            cols = T[:, rows]
+            box_filters_update(cols, z.T.copy(), WP)
+            T[:, rows] = cols
+        np.testing.assert_array_equal(T[:8].T, x)
+        np.testing.assert_array_equal(kf_unblock(T[8:].T.reshape(n, 2, 2, 4)), P)
+    assert np.count_nonzero(x[:3, 6:8] == 0.0) >= 2  # the size guards acted
+
+
+def test_cxcywh_from_a_transposed_copy() -> None:
+    rng = np.random.default_rng(5)
+    dets = cxcywh_to_xyxy(random_boxes(rng, 20))
+    np.testing.assert_array_equal(_cxcywh(dets, dets.T.copy()), xyxy_to_cxcywh(dets))
+
+
+def test_copied_tracker_continues_like_the_original() -> None:
+    """A pickled or deep-copied tracker (galleries and anchors included) carries on exactly as the
+    original: its views into the track arrays are remade, not copied apart."""
+    rng = np.random.default_rng(11)
+    k = 6
+    centre = rng.uniform(100.0, 900.0, (k, 2))
+    size = rng.uniform(20.0, 60.0, (k, 2))
+    feats = rng.normal(size=(k, 8))
+
+    def frame(t: int) -> tuple[Detections, np.ndarray]:
+        seen = np.flatnonzero(rng.random(k) < 0.8)
+        c = centre[seen] + t * 2.0 + rng.normal(0, 1.0, (len(seen), 2))
+        xyxy = np.column_stack([c - size[seen] / 2, c + size[seen] / 2])
+        return Detections(xyxy=xyxy, score=np.full(len(seen), 0.9), class_id=np.zeros(len(seen))), feats[seen]
+
+    tracker = Tracker(TrackerConfig(), frame_rate=10.0)
+    for t in range(30):
+        tracker.update(*frame(t))
+    copies = [copy.deepcopy(tracker), pickle.loads(pickle.dumps(tracker))]
+    for t in range(30, 60):
+        dets, f = frame(t)
+        out = tracker.update(dets, f)
+        for c in copies:
+            got = c.update(dets, f)
+            np.testing.assert_array_equal(got.track_id, out.track_id)
+            np.testing.assert_array_equal(got.xyxy, out.xyxy)

@@ -44,6 +44,18 @@ a re-run skips done variants and re-runs the rest (their directories and store r
 are removed first). A variant that raises is ``failed`` with a one-line error and
 does not stop the others.
 
+Workers and loaded models are reused across variants, none is started, imported or loaded
+per variant: a pool (``new_pool``, ``spawn``) starts its workers once per sweep, they import
+the loop in their initializer (``warm_worker``) and run variant after variant; on Ray
+(``--ray``, ``start_ray``: ``local`` starts a new local instance with ``workers`` CPUs) each
+variant is a task (``ray_task``) without a ``max_calls`` limit, so Ray's worker processes run
+task after task too (the first variant on each imports the loop). Inside a worker the ONNX
+sessions (detector, appearance embedder) are loaded once per model file version and options
+(``perception.detectors.onnx_detector.load_session``); each variant still builds its own
+stack, as the detector, tracker and alerts hold per-run state. ``summary.json`` records the
+pid each variant ran on (``variants.*.pid``) and the sweep's ``worker_pids``, which is how the
+reuse is checked (``lookahead bench sweep``).
+
 Killed sweeps and resumes: the store keeps exactly one run per variant directory.
 ``settle_store`` deletes every other one (half-written by a killed sweep, written
 twice by a late worker, rows that outlived their run) in one transaction, before
@@ -346,23 +358,39 @@ def import_ray():
     return ray
 
 
-def _run_ray(jobs: list[dict], address: str, workers: int, on_result: Callable[[dict], None]) -> None:
-    """One Ray task per variant (1 CPU each). ``address``: ``auto``, ``ray://...``, ``HOST:PORT``,
-    or ``local`` (start a local instance with ``workers`` CPUs). An already initialised Ray
-    (e.g. ``ray.init`` by the caller) is used as it is."""
+def start_ray(address: str, workers: int) -> bool:
+    """Connect to Ray unless it is initialised already (e.g. by the caller); True when this call
+    did (the caller then ends it with ``ray.shutdown``). ``address``: ``auto``, ``ray://...``,
+    ``HOST:PORT``, or ``local``: a new local instance with ``workers`` CPUs, never one started
+    with ``ray start``."""
     ray = import_ray()
-    started = False
-    if not ray.is_initialized():
-        try:
-            if address == "local":
-                ray.init(num_cpus=workers, include_dashboard=False, logging_level=logging.WARNING)
-            else:
-                ray.init(address=address, logging_level=logging.WARNING)
-        except Exception as e:
-            raise SweepError(f"--ray {address}: cannot start or reach a Ray cluster ({one_line(e)})") from None
-        started = True
+    if ray.is_initialized():
+        return False
     try:
-        task = ray.remote(num_cpus=1, max_retries=0)(run_variant)
+        if address == "local":
+            ray.init(address="local", num_cpus=max(1, workers), include_dashboard=False,
+                     logging_level=logging.WARNING)
+        else:
+            ray.init(address=address, logging_level=logging.WARNING)
+    except Exception as e:
+        raise SweepError(f"--ray {address}: cannot start or reach a Ray cluster ({one_line(e)})") from None
+    return True
+
+
+def ray_task(fn: Callable):
+    """``fn`` as a Ray task needing 1 CPU, never retried, run by reused workers: ``max_calls=0``
+    (no limit; Ray's default for CPU tasks, stated so nothing defeats it), so a worker process
+    imports the loop and loads its models once and runs task after task."""
+    return import_ray().remote(num_cpus=1, max_retries=0, max_calls=0)(fn)
+
+
+def _run_ray(jobs: list[dict], address: str, workers: int, on_result: Callable[[dict], None]) -> None:
+    """One Ray task per variant (``ray_task``); Ray connected by ``start_ray`` (an already
+    initialised Ray is used as it is and left running)."""
+    ray = import_ray()
+    started = start_ray(address, workers)
+    try:
+        task = ray_task(run_variant)
         refs = {task.remote(**job): job["vid"] for job in jobs}
         pending = list(refs)
         while pending:
@@ -478,7 +506,8 @@ def gather(
         r = results.get(v.id)
         entry: dict[str, Any] = {"dir": f"{RUNS_DIR}/{v.id}", "params": v.params, "skipped": r is None,
                                  "seconds": None if r is None else r.get("seconds"),
-                                 "cpu_seconds": None if r is None else r.get("cpu_seconds")}
+                                 "cpu_seconds": None if r is None else r.get("cpu_seconds"),
+                                 "pid": None if r is None else r.get("pid")}
         if is_complete(d, v.scenario):
             metrics = d.read_metrics()
             entry.update(status="done", summary=d.run.get("summary"), metrics=key_metrics(metrics, extra))
@@ -510,6 +539,7 @@ def gather(
         "db": rel(db),
         "counts": {"variants": len(variants), "done": len(done), "failed": len(failed),
                    "ran": len(results), "skipped": len(variants) - len(results)},
+        "worker_pids": sorted({r["pid"] for r in results.values() if r.get("pid") is not None}),
         "failed": {k: entries[k]["error"] for k in failed},
         "variants": entries,
         "totals": totals,

@@ -83,6 +83,7 @@ class IntentRun:
     gt_in_path: dict[int, set[int]] = field(default_factory=lambda: defaultdict(set))  # actor -> frames in path
     braking: list[bool] = field(default_factory=list)  # per frame: the AEB brake non-null (aeb_brake_of)
     aeb_on: bool | None = None  # run.json's scenario.ego.aeb is on (None: not recorded)
+    latency_frames: int = 0  # run.json's scenario.perception.latency: alerts reach the driver this many frames late
 
 
 def load_intent_run(run: RunDir | Path) -> IntentRun:
@@ -97,13 +98,31 @@ def load_intent_run(run: RunDir | Path) -> IntentRun:
         ego = scenario.get("ego")
         if isinstance(ego, dict) and "aeb" in ego:
             out.aeb_on = ego["aeb"] not in (None, False)
+        perception = scenario.get("perception")
+        if isinstance(perception, dict):
+            out.latency_frames = int(perception.get("latency") or 0)
     for f, rec in enumerate(records):
         try:
             out.t.append(float(rec["t"]))
             _read_frame(out, f, rec)
         except (KeyError, TypeError, ValueError) as e:
             raise RunDirError(f"{rd.where(f)}: cannot read intent fields ({e})") from None
+    _deliver_alerts(out)
     return out
+
+
+def _deliver_alerts(out: IntentRun) -> None:
+    """Alerts reach the driver ``latency_frames`` after the frame they were raised on: each
+    alert's ``frame`` and ``t`` become the delivery frame's (``perceived_frame`` keeps the
+    frame it was raised on), so warning lead times count the latency."""
+    lag = out.latency_frames
+    if not lag:
+        return
+    dt = float(np.median(np.diff(out.t))) if len(out.t) > 1 else 0.0
+    for a in out.alerts:
+        f = a["perceived_frame"] = a["frame"]
+        a["frame"] = f + lag
+        a["t"] = out.t[f + lag] if f + lag < len(out.t) else out.t[f] + lag * dt
 
 
 def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
@@ -224,7 +243,7 @@ def evaluate_danger(run: IntentRun) -> dict:
     frame_actor = {(f, tr): a for f, a, tr, _ in run.pairs}
     raised = [a for a in run.alerts if a.get("kind") in ("fcw", "critical")]
     for a in raised:
-        a["actor"] = frame_actor.get((a["frame"], a["track_id"]), owner.get(a["track_id"]))
+        a["actor"] = frame_actor.get((a.get("perceived_frame", a["frame"]), a["track_id"]), owner.get(a["track_id"]))
     t = np.asarray(run.t)
     events, missed, leads = [], 0, []
     danger_frames = {a: [f for f, lab in tl.items() if lab == Label.DANGER] for a, tl in run.gt_label.items()}

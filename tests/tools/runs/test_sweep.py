@@ -212,19 +212,32 @@ def test_killed_sweep_reruns_only_the_missing_variants(tmp_path):
     assert rows == sorted((str(out / "runs" / v.id), 1) for v in variants)
 
 
-def test_sweep_on_a_local_ray_instance(tmp_path):
-    ray = pytest.importorskip("ray")
+def _ray_or_skip():
     try:
-        ray.init(num_cpus=2, include_dashboard=False, logging_level="ERROR")
-    except Exception as e:  # pragma: no cover - sandboxes without shared memory
-        pytest.skip(f"ray cannot start here: {e}")
-    try:
-        sw = short_sweep(tmp_path, "  ego.speed: [8, 10, 12]\n", duration=1.5)
-        s = run_sweep(sw, tmp_path / "out", ray_address="auto", report=False)
-    finally:
-        ray.shutdown()
-    assert s["backend"] == "ray" and s["counts"]["done"] == 3 and s["counts"]["failed"] == 0
-    assert len(db_runs(tmp_path / "out" / "sweep.sqlite")) == 3
+        import ray
+    except ImportError as e:
+        pytest.skip(f"ray is not importable (the 'distributed' extra): {e}")
+    return ray
+
+
+def test_sweep_on_a_local_ray_instance_equals_the_pool(tmp_path):
+    """``--ray local``: a new local Ray instance (2 CPUs), started and shut down by the sweep, runs
+    every variant on reused workers with the same metrics as the process pool."""
+    ray = _ray_or_skip()
+    sw = short_sweep(tmp_path, "  ego.speed: [8, 10, 12]\n  ego.aeb: [true]\n", duration=1.0)
+    s = run_sweep(sw, tmp_path / "ray", ray_address="local", workers=2, report=False)
+    assert not ray.is_initialized()  # started here, so shut down here
+    pool = run_sweep(sw, tmp_path / "pool", workers=2, report=False)
+    assert s["backend"] == "ray" and pool["backend"] == "pool"
+    assert s["counts"] == pool["counts"] == {"variants": 3, "done": 3, "failed": 0, "ran": 3, "skipped": 0}
+    assert len(db_runs(tmp_path / "ray" / "sweep.sqlite")) == 3
+    on_disk = json.loads((tmp_path / "ray" / "summary.json").read_text())
+    assert {k: v["metrics"] for k, v in on_disk["variants"].items()} == {
+        k: v["metrics"] for k, v in json.loads((tmp_path / "pool" / "summary.json").read_text())["variants"].items()}
+    assert json.dumps(s["totals"], sort_keys=True) == json.dumps(pool["totals"], sort_keys=True)
+    # 3 variants on at most 2 reused worker processes, none of them this one
+    assert 1 <= len(s["worker_pids"]) <= 2 and os.getpid() not in s["worker_pids"]
+    assert {v["pid"] for v in s["variants"].values()} == set(s["worker_pids"])
 
 
 def test_cli_bad_input_is_one_line_and_exit_2(tmp_path):
@@ -268,12 +281,39 @@ def test_bench_env_and_bench_sweep_json(tmp_path):
     assert env["traffic_vehicles"] == 10 and env["cases"]["tracks_env_step"]["n"] == 20
     assert "highway_env_step" in env["cases"] and "highway_env_realtime_factor" in env["ratios"]
     sw = short_sweep(tmp_path, "  ego.speed: [8, 9, 10]\n", duration=1.0)
-    result = bench_sweep(sw, variants=2)
+    result = bench_sweep(sw, variants=2, ray=False)
     _check_bench(result, "two_workers_over_one")
     assert result["variants"] == 2 and result["failed_variants"] == 0
     assert set(result["cases"]) == {f"{k}_{n}" for k in ("sweep", "variant", "variant_cpu")
                                     for n in ("1_worker", "2_workers")}
-    assert len(result["worker_pids"]["2"]) == 2
+    assert len(result["worker_pids"]["2"]) == 2 and result["workers_reused"]
+    assert result["ray_skipped"] == "not asked for" and "ray_over_two_workers" not in result["ratios"]
+
+
+def test_bench_sweep_ray_case(tmp_path):
+    """The Ray case (an initialised Ray, which ``run_sweep`` uses as it is): warmed, reused workers,
+    the same results as the 2-worker pool (structure only)."""
+    ray = _ray_or_skip()
+    from lookahead.tools.bench.sweep import bench_sweep
+
+    sw = short_sweep(tmp_path, "  ego.speed: [8, 9, 10]\n", duration=1.0)
+    result = bench_sweep(sw, worker_counts=(2,))
+    _check_bench(result, "ray_over_two_workers")
+    assert {"sweep_ray", "variant_ray", "variant_cpu_ray", "sweep_2_workers"} <= set(result["cases"])
+    assert result["ray_same_results"] is True and result["ray_differing_variants"] == []
+    assert result["workers_reused"] and len(result["worker_pids"]["ray"]) == 2
+    assert set(result["variant_worker_pids"]["ray"]) <= set(result["worker_pids"]["ray"])
+    assert not ray.is_initialized()  # the bench started it, so shut it down
+
+
+def test_differing_variants_compares_status_and_metrics():
+    from lookahead.tools.bench.sweep import differing_variants
+
+    a = {"variants": {"x": {"status": "done", "metrics": {"m": float("nan")}}, "y": {"status": "done", "metrics": {}}}}
+    b = {"variants": {"x": {"status": "done", "metrics": {"m": float("nan")}}, "z": {"status": "done", "metrics": {}}}}
+    assert differing_variants(a, a) == [] and differing_variants(a, b) == ["y", "z"]
+    c = {"variants": {"x": {"status": "done", "metrics": {"m": 1.0}}, "y": {"status": "failed", "metrics": None}}}
+    assert differing_variants(a, c) == ["x", "y"]
 
 
 def test_a_sweep_resumed_with_another_aeb_switch_reruns_instead_of_mixing(tmp_path):
