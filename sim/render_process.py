@@ -188,23 +188,23 @@ class RenderProcess:
         """The worker's next message; ``RenderError`` for its error, its death or a timeout."""
         while not self._conn.poll(1.0 if timeout is None else min(timeout, 1.0)):
             if not self._proc.is_alive():
-                raise RenderError(f"render worker died (exit code {self._proc.exitcode})")
+                raise RenderError(f"render worker died (exit code {self._died()})")
             if timeout is not None:
                 timeout -= 1.0
                 if timeout <= 0:
                     raise RenderError("render worker did not answer in time")
         try:
             msg = self._conn.recv()
-        except EOFError:
-            raise RenderError(f"render worker died (exit code {self._proc.exitcode})") from None
+        except (EOFError, OSError):
+            raise RenderError(f"render worker died (exit code {self._died()})") from None
         if msg[0] == "error":
             raise RenderError(f"render worker: {msg[1]}")
         return msg
 
-    @property
-    def in_flight(self) -> int:
-        """Frames asked for and not yet collected."""
-        return len(self._pending)
+    def _died(self) -> int | None:
+        """The dead worker's exit code (waits a moment for the OS to report it)."""
+        self._proc.join(1.0)
+        return self._proc.exitcode
 
     def submit(self, frame_index: int, ego_pose: Sequence[float],
                poses: Mapping[int, Sequence[float]]) -> None:
@@ -213,7 +213,10 @@ class RenderProcess:
             raise RuntimeError(f"at most {SLOTS} frames in flight")
         slot = self._next_slot
         self._next_slot = (slot + 1) % SLOTS
-        self._conn.send(("render", slot, int(frame_index), tuple(ego_pose), dict(poses)))
+        try:
+            self._conn.send(("render", slot, int(frame_index), tuple(ego_pose), dict(poses)))
+        except OSError:
+            raise RenderError(f"render worker died (exit code {self._died()})") from None
         self._pending.append(slot)
 
     def result(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:

@@ -1259,6 +1259,7 @@ def bench_all(
     console.print(f"full loop: {result['loop_fps']:.1f} frames/s overlapped, {result['loop_fps_sequential']:.1f}"
                   f" stage by stage (slowest stage group: {result['loop_slowest_stage_group']};"
                   f" renderer {result['renderer']})", highlight=False)
+    console.print(f"sweep on Ray, same results as on 2 workers: {result['sweep_ray_same_results']}", highlight=False)
 
 
 @bench_app.command("detect")

@@ -76,3 +76,29 @@ def test_warning_lead_time_counts_the_latency(tmp_path):
         lead[latency] = evaluate_danger(run_)["lead_time_s_median"]
     # the same alert, delivered one frame (0.1 s) later, at a TTC 0.1 s shorter
     assert lead[1] == pytest.approx(lead[0] - 0.1, abs=0.02)
+
+
+def test_a_render_worker_that_dies_is_one_error_and_leaves_nothing_behind():
+    import os
+    import signal
+
+    from lookahead.sim.render_process import RenderError
+
+    sc = stationary_aeb(duration=2.0)
+    r = Runner(sc, render=True)
+    r.step()
+    proc, shm = r.renderer._proc, r.renderer._shms[0].name
+    os.kill(proc.pid, signal.SIGKILL)
+    with pytest.raises(RenderError, match="render worker died"):
+        r.step()
+    r.close()
+    assert not proc.is_alive() and not os.path.exists(f"/dev/shm/{shm.lstrip('/')}")
+
+
+def test_the_render_worker_ends_with_its_runner():
+    r = Runner(stationary_aeb(duration=1.0), render=True)
+    proc = r.renderer._proc
+    assert proc.is_alive()
+    r.run()  # closes the runner
+    proc.join(5.0)
+    assert not proc.is_alive() and proc.exitcode == 0

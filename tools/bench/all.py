@@ -1,8 +1,8 @@
 """``lookahead bench all``: every benchmark in one process, one JSON, one table.
 
 Runs ``bench sim``, ``bench track``, ``bench detect``, ``bench sinks``, ``bench env``
-(``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 vs 2
-workers), ``bench watch`` (the watch pipeline vs its slowest stage), ``bench appearance``
+(``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 and 2
+workers and on a local Ray instance; ``sweep_ray_same_results``), ``bench watch`` (the watch pipeline vs its slowest stage), ``bench appearance``
 (the tracker with and without appearance re-identification at 30 objects) and the full
 rendered loop (``urban_mix``, 640x360, the shipped ONNX detector; ``bench_loop``) on the
 same machine in one run; cases are prefixed with their benchmark's name and all ratios
@@ -113,5 +113,6 @@ def bench_all(repeats: int = 3) -> dict:
     return {"machine": machine(), "cases": cases, "ratios": ratios, "loop_fps": parts["loop"]["fps"],
             "loop_fps_sequential": parts["loop"]["fps_sequential"], "renderer": parts["loop"]["renderer"],
             "loop_slowest_stage_group": parts["loop"]["slowest_stage_group"],
+            "sweep_ray_same_results": parts["sweep"].get("ray_same_results"),
             "detect_fps": parts["detect"]["fps"], "track_accuracy": track, "watch_fps": parts["watch"]["fps"],
             "watch_latency_ms": parts["watch"]["latency_ms"]}
