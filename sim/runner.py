@@ -5,8 +5,11 @@ the camera renders a ``Frame``, ground truth is computed, the perception + inten
 (``intent.stack``, built by ``build_stack`` from the scenario's settings) runs, the AEB
 and the driver (``sim.driver``, if the scenario has one) decide, and a ``TickRecord`` goes
 to every sink. ``Runner.step`` advances one camera frame (the gym env steps with it);
-``Runner.run`` loops over it to the end. Sinks are injected (observers) so ``sim`` never
-imports ``tools``. Each stage is timed (ms).
+``Runner.run`` runs the same loop to the end, with the render worker
+(``sim.render_process``) drawing frame k+1 while frame k is perceived (``overlap``;
+the records are the same). Decisions on a frame reach the AEB and the driver
+``perception.latency`` frames later (0: at once). Sinks are injected (observers) so
+``sim`` never imports ``tools``. Each stage is timed (ms).
 A record's ``ego`` holds the pose, the odometry and ``brake``, the brake command applied
 (m/s^2, null while none is on: the stronger of the AEB's and the driver's); runs with the
 AEB on add ``aeb_brake`` (the AEB's own command), runs with a driver ``driver_brake``
@@ -161,6 +164,9 @@ class RunSummary:
 
 class Runner:
     """Runs one scenario in closed loop and feeds every camera frame to the sinks.
+
+    ``overlap`` (with ``render``): ``run`` renders the next frame while it perceives this one,
+    with one inference thread and one GL thread when the detector's ``threads`` is auto.
 
     ``run()`` runs it to the end; ``step()`` advances one camera frame at a time (an external
     controller may command the ego's acceleration), ``observe()`` records the current state
