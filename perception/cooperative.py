@@ -31,15 +31,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from lookahead.perception.geometry import rotation_2d
+
 GATE_CHI2 = 13.82  # chi-square, 2 dof, 0.999: the Mahalanobis gate of a match (squared)
 _BIG = 1e12  # stands in for +inf inside linear_sum_assignment
 
 SOURCES = ("own", "other", "both")  # ``ObjectList.source`` codes: 0, 1, 2
-
-
-def _rot(yaw: float) -> np.ndarray:
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.array([[c, -s], [s, c]])
 
 
 @dataclass
@@ -114,7 +111,7 @@ def to_frame(msg: SharedObjects, pose: tuple[float, float, float], t: float,
     m/s^2 over the age). ``source`` becomes ``other``."""
     o = msg.objects
     age = float(t) - float(msg.t)
-    r_sender, r_ego = _rot(msg.pose[2]), _rot(pose[2])
+    r_sender, r_ego = rotation_2d(msg.pose[2]), rotation_2d(pose[2])
     r = r_ego.T @ r_sender  # sender frame -> receiver frame
     world = o.xy @ r_sender.T + np.asarray(msg.pose[:2]) + (o.velocity @ r_sender.T) * age
     xy = (world - np.asarray(pose[:2])) @ r_ego

@@ -137,6 +137,7 @@ from lookahead.perception.camera import CameraModel
 from lookahead.perception.detections import Detections
 from lookahead.perception.estimator_config import ClassPrior, EstimatorConfig, PriorTable
 from lookahead.perception.frame import EgoOdometry
+from lookahead.perception.geometry import rotation_2d
 from lookahead.perception.ranging import MIN_DEPTH, BoxRanger, Measurement
 from lookahead.perception.tracker import Tracks, TrackState
 
@@ -253,11 +254,6 @@ def time_to_collision(rng: np.ndarray, range_rate: np.ndarray) -> np.ndarray:
         ttc = np.where(closing > 1e-6, np.maximum(r, 0.0) / closing, np.inf)
     ttc = np.where(r <= 0.0, 0.0, ttc)
     return np.where(np.isnan(r) | np.isnan(closing), np.nan, ttc)
-
-
-def _rot(a: float) -> np.ndarray:
-    c, s = np.cos(a), np.sin(a)
-    return np.array([[c, -s], [s, c]])
 
 
 def _slope_fit(t: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -466,7 +462,7 @@ class Estimator:
         hw = np.full(n, np.nan)
         height = np.full(n, np.nan)
         hist: list[deque | None] = [None] * n
-        to_world = _rot(self._ego_yaw)
+        to_world = rotation_2d(self._ego_yaw)
         for i in range(n):
             tid, cls = int(tracks.track_id[i]), int(tracks.class_id[i])
             trk = self._filters.get(tid)
@@ -655,7 +651,7 @@ class Estimator:
         theta = yaw_rate * dt
         chord = speed * dt * np.sinc(theta / (2.0 * np.pi))
         shift = chord * np.array([np.cos(theta / 2.0), np.sin(theta / 2.0)])
-        rot = _rot(-theta)
+        rot = rotation_2d(-theta)
         jac = np.kron(np.eye(self._dim // 2), rot)
         self._ego_yaw += theta
         models: dict[int, list[tuple[np.ndarray, np.ndarray]]] = {}
@@ -751,7 +747,7 @@ class Estimator:
         rr = vx - speed + yaw_rate * y
         lr = vy - yaw_rate * x
         accel, yaw = np.full(n, np.nan), np.full(n, np.nan)
-        to_world = _rot(self._ego_yaw)
+        to_world = rotation_2d(self._ego_yaw)
         for i, h in enumerate(hist):
             if h is None or len(h) < cfg.min_history:
                 continue

@@ -23,6 +23,12 @@ _UNIT_CORNERS = np.array(
 )
 
 
+def rotation_2d(angle: float) -> np.ndarray:
+    """2x2 matrix rotating ground vectors by ``angle`` (rad, counter-clockwise)."""
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s], [s, c]])
+
+
 def box_corners(center: np.ndarray, size: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """Corners (N, 8, 3) of boxes with centers (N, 3), sizes (N, 3) and yaws (N,)."""
     center = np.asarray(center, dtype=np.float64).reshape(-1, 3)

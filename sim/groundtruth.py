@@ -5,9 +5,9 @@ the amodal 2D box is the projection of the 8 corners through the one camera
 model, clipped at the near plane. Visible boxes and visible fractions come from
 the renderer's segmentation (``with_visibility``): visible fraction = visible
 pixels / pixels of the actor's unoccluded silhouette (rendered alone, only where
-something nearer hides it). Without rendering they are estimated from box overlap
-(``world_truth``; documented as an approximation). Labels, behaviour and risk come from ``intent.labels.assess``,
-the same code that labels predictions.
+something nearer may hide it). Without rendering they are estimated from box
+overlap (``world_truth``; documented as an approximation). Labels, behaviour and
+risk come from ``intent.labels.assess``, the same code that labels predictions.
 """
 
 from __future__ import annotations
@@ -317,8 +317,9 @@ def with_visibility(
     ground's depth, ``CameraModel.ground_depth``: road, kerbs and pavements never hide an
     actor standing on them). Elsewhere the actor alone covers exactly its visible pixels,
     so only the window of those pixels is rendered, and none when there are none. Without
-    ``depth`` / ``ground_depth`` those tests are skipped (more is rendered, same result);
-    without ``silhouettes`` the fractions stay 1.
+    ``depth`` every other pixel of the box may hide the actor; without ``ground_depth`` the
+    ground may too (more is rendered, and kerbs count as occluders); without
+    ``silhouettes`` the fractions stay 1.
     """
     n = len(gt)
     amodal = np.nan_to_num(gt.amodal)
@@ -346,10 +347,10 @@ def with_visibility(
                 others &= hider
             rows, cols = np.nonzero(others)
             hidden = 0
-            if len(rows):
-                window = (u0 + int(cols.min()) - 1, v0 + int(rows.min()) - 1,
-                          u0 + int(cols.max()) + 2, v0 + int(rows.max()) + 2)
-                alone = silhouettes([int(gt.actor_id[k])], window)
-                hidden = np.count_nonzero((alone == gt.actor_id[k]) & (seg != gt.actor_id[k]))
+            if len(rows):  # the actor alone is drawn only in this window: count there
+                a0, b0 = max(u0 + int(cols.min()) - 1, 0), max(v0 + int(rows.min()) - 1, 0)
+                a1, b1 = u0 + int(cols.max()) + 2, v0 + int(rows.max()) + 2
+                alone = silhouettes([int(gt.actor_id[k])], (a0, b0, a1, b1))[b0:b1, a0:a1]
+                hidden = np.count_nonzero((alone == gt.actor_id[k]) & (seg[b0:b1, a0:a1] != gt.actor_id[k]))
             vis_frac[k] = pixels[k] / (pixels[k] + hidden)
     return replace(gt, visible=visible, pixels=pixels, visible_fraction=vis_frac)

@@ -75,9 +75,7 @@ def measure_backends(camera: CameraModel) -> dict[str, float]:
     from lookahead.sim.world import World
 
     world = World(load_scenario(SCENARIOS / PROBE_SCENARIO))
-    st = world.agent_states()
-    poses = {int(i): (float(x), float(y), float(h), float(ph))
-             for i, (x, y), h, ph in zip(st.ids, st.xy, st.yaw, st.gait_phase, strict=True)}
+    poses = world.actor_poses()
     out: dict[str, float] = {}
     for backend in ("egl", "tiny"):
         try:

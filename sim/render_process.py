@@ -8,7 +8,7 @@ a busy Python thread beside it took a 68 ms render to 189 ms. So the renderer li
 a worker process of its own:
 
 * ``RenderProcess(camera, layout, seed, backend, shapes, scenario)`` starts the worker
-  (multiprocessing ``fork``: ~10 ms, nothing imported again, so a script needs no
+  (multiprocessing ``fork``: ~4 ms, nothing imported again, so a script needs no
   ``__main__`` guard; ``forkserver`` and ``spawn`` would import the script's main module
   in the worker). The worker builds a ``Renderer`` with every actor and the scenario's
   ``Weather``, and holds the only EGL context of its process (``auto`` is resolved there,
@@ -16,7 +16,7 @@ a worker process of its own:
 * ``submit(frame_index, ego_pose, poses)`` asks for a frame; the worker renders it
   (weather applied to the image), writes RGB, depth and segmentation into one of
   ``SLOTS`` shared-memory slots and answers with its ms. ``result()`` waits for the
-  oldest frame asked and copies it out of its slot (2.5 MB at 640x360, ~0.5 ms): a
+  oldest frame asked and copies it out of its slot (2.5 MB at 640x360, ~0.05 ms): a
   slot is reused two frames later, and sinks may keep a frame. ``render()`` = both.
 * A worker error comes back as ``RenderError`` naming it; a worker that dies is one too.
   The worker ends when ``close()`` says so or the pipe to its parent closes (the
@@ -60,7 +60,7 @@ class RenderError(RuntimeError):
 
 
 def _context() -> Any:
-    """How to start a worker: ``fork`` (~10 ms, nothing imported again, so a script needs no
+    """How to start a worker: ``fork`` (~4 ms, nothing imported again, so a script needs no
     ``__main__`` guard) while this process never loaded EGL -- a fork of a process whose GL
     driver threads exist can hang in GL --, else ``forkserver`` (a clean server, this module
     preloaded), else ``spawn``."""

@@ -46,7 +46,7 @@ log = logging.getLogger(__name__)
 # PyBullet clients holding the EGL plugin. The plugin keeps process-global GL state: a
 # second live instance leaves the first rendering empty frames, so only one may exist.
 _EGL_CLIENTS: set[int] = set()
-_EGL_LOADED: list[bool] = [False]  # the EGL plugin was loaded in this process (its GL threads may live on)
+_EGL_LOADED = False  # the EGL plugin was loaded in this process (its GL threads may live on)
 
 
 def egl_in_use() -> bool:
@@ -57,9 +57,7 @@ def egl_in_use() -> bool:
 def egl_loaded() -> bool:
     """Whether the EGL plugin was ever loaded in this process: a fork of it may then hang in
     GL (``sim.render_process`` starts its worker another way)."""
-    return _EGL_LOADED[0]
-
-
+    return _EGL_LOADED
 
 
 @dataclass
@@ -158,7 +156,8 @@ class Renderer:
                 raise RuntimeError("loading _eglRendererPlugin failed")
             self._client.plugin = plugin
             _EGL_CLIENTS.add(self._client.cid)
-            _EGL_LOADED[0] = True
+            global _EGL_LOADED
+            _EGL_LOADED = True
             eye = np.eye(4).ravel().tolist()
             proj = gl_projection(self.camera, self.near, self.far).T.ravel().tolist()
             out = p.getCameraImage(

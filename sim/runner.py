@@ -224,14 +224,6 @@ class Runner:
         self.latency = scenario.perception.latency  # frames from a frame to its decisions acting
         self.overlap = overlap
         self._decisions: deque[_Decision] = deque()  # perceived, not yet handed to the AEB / driver
-        self._sim_ms = 0.0  # ms stepping the world since the last frame
-
-    def _poses(self) -> dict[int, tuple[float, float, float, float]]:
-        st = self.world.agent_states()
-        return {
-            int(i): (float(x), float(y), float(h), float(p))
-            for i, (x, y), h, p in zip(st.ids, st.xy, st.yaw, st.gait_phase, strict=True)
-        }
 
     # ------------------------------------------------------------------ one frame, in stages
     def _snapshot(self, collisions: Sequence[Collision] = (), sim_ms: float = 0.0) -> _Snapshot:
@@ -249,7 +241,7 @@ class Runner:
         frame = Frame(tick=w.tick, t=w.t, camera=self.camera, odometry=w.odometry, index=self.frame_index)
         self.frame_index += 1
         timings = {"sim": sim_ms, "gt": (time.perf_counter() - t0) * 1e3}
-        return _Snapshot(frame, (x, y, yaw), self._poses(), gt, ego, list(collisions), timings)
+        return _Snapshot(frame, (x, y, yaw), w.actor_poses(), gt, ego, list(collisions), timings)
 
     def _request(self, snap: _Snapshot) -> None:
         """Ask the render worker for ``snap``'s frame (if rendering); ``_develop`` collects it."""
@@ -341,10 +333,11 @@ class Runner:
         driver_ok = self.driver is None or self.driver.braking or self.driver.config.reaction_s >= period
         return aeb_ok and driver_ok
 
-    def _advance(self) -> tuple[StepResult, bool]:
+    def _advance(self) -> tuple[StepResult, bool, float]:
         """World ticks, each the brake command (the AEB's or the driver's, the stronger) then
         ``World.step``, until a frame tick or a collision that ends the run (True: the caller
-        observes the frame; ``perceived`` is None) or the last tick between frames (False)."""
+        observes the frame; ``perceived`` is None) or the last tick between frames (False);
+        and the ms spent stepping."""
         w = self.world
         collisions: list[Collision] = []
         sim_ms, ticks = 0.0, 0
@@ -359,9 +352,8 @@ class Runner:
             ticks += 1
             ended = bool(collisions) and self.scenario.end_on_collision
             if w.tick % self.frame_every == 0 or ended:
-                self._sim_ms = sim_ms
-                return StepResult(None, collisions, ticks, ended, ended or w.tick >= self.n_ticks), True
-        return StepResult(None, collisions, ticks, False, True), False
+                return StepResult(None, collisions, ticks, ended, ended or w.tick >= self.n_ticks), True, sim_ms
+        return StepResult(None, collisions, ticks, False, True), False, sim_ms
 
     # ------------------------------------------------------------------ running
     def run(self, progress: Callable[[float], None] | None = None) -> RunSummary:
@@ -374,8 +366,7 @@ class Runner:
         the records are the same as without overlap."""
         sc = self.scenario
         info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
-                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera,
-                "latency_frames": self.latency, "latency_s": round(self.latency * self.frame_every * self.world.dt, 6)}
+                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera}
         for s in self.sinks:
             s.on_start(info)
         summary = RunSummary(0, 0, 0.0, renderer=info["renderer"])
@@ -395,13 +386,13 @@ class Runner:
                     finish()
                 self._apply_decisions()
                 self.world.ego.accel_command = None
-                result, framed = self._advance()
+                result, framed, sim_ms = self._advance()
                 if not framed:
                     break
                 t_start = time.perf_counter()
-                snap = self._snapshot(result.collisions, self._sim_ms)
+                snap = self._snapshot(result.collisions, sim_ms)
                 self._request(snap)  # rendered by the worker while the previous frame is perceived
-                summary.overlapped += pending is not None and self.renderer is not None
+                summary.overlapped += pending is not None  # only overlapping runs leave one pending here
                 finish()
                 pending = (snap, t_start)
                 if progress is not None:
@@ -437,10 +428,10 @@ class Runner:
         """
         self._apply_decisions()
         self.world.ego.accel_command = accel
-        result, framed = self._advance()
+        result, framed, sim_ms = self._advance()
         if not framed:
             return result
-        result.perceived = self.observe(result.collisions, self._sim_ms)
+        result.perceived = self.observe(result.collisions, sim_ms)
         return result
 
     def observe(self, collisions: Sequence[Collision] = (), sim_ms: float = 0.0) -> Perceived:

@@ -300,8 +300,8 @@ class Scene:
         far: how far (m) scenery is drawn (the renderer's far plane).
         backend: the renderer's backend, "egl" or "tiny" (TinyRenderer gets short
             surface tiles).
-        static: build the road and the roadside scenery; False: actors only (the
-            renderer's silhouette scene).
+        static: build the road and the roadside scenery; False: actors only
+            (``sim.silhouettes``).
     """
 
     def __init__(
@@ -318,7 +318,7 @@ class Scene:
         )
         self._fan = np.linspace(-1.0, 1.0, 9) * min(half_fov + 0.05, np.pi)
         self._extents: dict[float, np.ndarray] = {}
-        self._pools: list[_Pool] = []  # ground-level rows (kept in silhouettes)
+        self._pools: list[_Pool] = []  # ground-level rows (always shown)
         self._structures: list[_Pool] = []  # roadside structures (hidden without structures)
         if static:
             self._build()

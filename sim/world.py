@@ -148,6 +148,12 @@ class World:
         y = -float(self.ego.position[1]) + half * np.sin(yaw)
         return x, y, yaw
 
+    def actor_poses(self) -> dict[int, tuple[float, float, float, float]]:
+        """Actor id -> world (x, y, heading, gait phase) (m, rad): what the renderer poses."""
+        st = self.agent_states()
+        return {int(i): (float(x), float(y), float(h), float(p))
+                for i, (x, y), h, p in zip(st.ids, st.xy, st.yaw, st.gait_phase, strict=True)}
+
     def agent_states(self) -> AgentStates:
         a = self.agents
         return AgentStates(

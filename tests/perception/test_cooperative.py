@@ -13,12 +13,11 @@ from lookahead.perception.cooperative import (
     range_covariance,
     to_frame,
 )
+from lookahead.sim.layout import ego_frame
 
 
 def world_to_ego(p: np.ndarray, pose) -> np.ndarray:
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    d = np.asarray(p, dtype=float) - np.asarray(pose[:2])
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
+    return ego_frame(np.asarray(pose[:2]), pose[2], p)[0]
 
 
 def objects(xy, velocity, class_id=None, cov=None) -> ObjectList:

@@ -99,7 +99,7 @@ def test_rendered_visible_fractions_equal_whole_silhouettes_rendered_alone():
         def on_end(self, summary): ...
 
         def on_tick(self, rec):
-            gt, pose, poses = rec.ground_truth, runner.world.ego_pose(), runner._poses()
+            gt, pose, poses = rec.ground_truth, runner.world.ego_pose(), runner.world.actor_poses()
             for k in np.nonzero((gt.visible_fraction < 1.0) & (gt.pixels > 0))[0]:
                 alone = runner.silhouettes(pose, poses, [int(gt.actor_id[k])])
                 whole = np.count_nonzero(alone == gt.actor_id[k])

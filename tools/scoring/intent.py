@@ -118,7 +118,7 @@ def _deliver_alerts(out: IntentRun) -> None:
     lag = out.latency_frames
     if not lag:
         return
-    dt = float(np.median(np.diff(out.t))) if len(out.t) > 1 else 0.0
+    dt = _frame_period(out)
     for a in out.alerts:
         f = a["perceived_frame"] = a["frame"]
         a["frame"] = f + lag
@@ -179,10 +179,15 @@ def _label_near(run: IntentRun, actor: int, f: int, label: int, tol_frames: int)
     return any(timeline.get(k) == label for k in range(f - tol_frames, f + tol_frames + 1))
 
 
+def _frame_period(run: IntentRun) -> float:
+    """The run's camera frame period (s, median); 0 with fewer than two frames."""
+    return float(np.median(np.diff(run.t))) if len(run.t) > 1 else 0.0
+
+
 def _frame_tolerance(run: IntentRun, seconds: float) -> int:
     if len(run.t) < 2:
         return 0
-    return int(round(seconds / float(np.median(np.diff(run.t)))))
+    return int(round(seconds / _frame_period(run)))
 
 
 def evaluate_intent(run: IntentRun) -> dict:
