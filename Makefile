@@ -22,6 +22,7 @@ test: $(STAMP)
 	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --baseline scenarios/suites/smoke.baseline.json
 	$(BIN)/lookahead regress scenarios/suites/smoke.yaml --aeb on --detector onnx --render \
 		--baseline scenarios/suites/smoke_aeb_pixels.baseline.json
+	$(BIN)/lookahead regress scenarios/suites/cooperative.yaml --baseline scenarios/suites/cooperative.baseline.json
 	LOOKAHEAD_REQUIRE_SYSTEM=1 $(BIN)/python -m pytest
 
 lint: $(STAMP)

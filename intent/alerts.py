@@ -98,6 +98,18 @@ class AlertManager:
         self.config = config or AlertConfig()
         self.states: dict[int, _TrackAlertState] = {}
 
+    def hand_over(self, old: int, new: int) -> None:
+        """Object ``old`` goes on as track ``new`` (cooperative fusion: an object only others saw
+        is now the ego's own track): its alert state moves to ``new``, so the alert neither
+        restarts its debounce nor is raised again; ``new``'s own state stays if it is higher."""
+        st = self.states.pop(int(old), None)
+        if st is None:
+            return
+        mine = self.states.get(int(new))
+        if mine is None or mine.level < st.level:
+            st.unseen = 0
+            self.states[int(new)] = st
+
     def active(self) -> dict[int, int]:
         """Track id -> current alert level, for tracks seen this frame with an alert on."""
         return {k: s.level for k, s in self.states.items() if s.level and s.unseen == 0}

@@ -136,6 +136,7 @@ class PluginStack(PerceptionStack):
         self.estimator = Estimator(camera)  # class priors (half widths, lengths) only
         self.intent_config = intent_config
         self.alerts = AlertManager(alert_config)
+        self.fusion = None
         self._process = process
         self._truth = _positional(process) >= 2
         self._where = f"stack plug-in {ref!r}: process"

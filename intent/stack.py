@@ -17,6 +17,7 @@ import numpy as np
 
 from lookahead.intent.alerts import Alert, AlertConfig, AlertManager
 from lookahead.intent.config import IntentConfig
+from lookahead.intent.cooperative import FusionStage
 from lookahead.intent.labels import Assessment, Kinematics, Risk, assess
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.config import DEFAULT_MODEL, DetectorSpec, PerceptionSpec, SettingsError
@@ -86,6 +87,7 @@ class PerceptionStack:
         self.estimator = Estimator(camera, estimator_config)
         self.intent_config = intent_config
         self.alerts = AlertManager(alert_config)
+        self.fusion: FusionStage | None = None  # others' objects joined before intent (``intent.cooperative``)
 
     def reconfigure(
         self, *, intent_config: IntentConfig | None = None, alert_config: AlertConfig | None = None,
@@ -122,6 +124,18 @@ class PerceptionStack:
         A frame without ego speed (``frame.odometry.speed_known`` False) is assessed on relative
         motion only: the estimator marks what needs the ego's speed NaN and ``assess`` is given a
         NaN ego speed (``intent.labels``, "Without ego speed")."""
+        dets, tracks, est = self.perceive(frame, truth, timings)
+        t3 = time.perf_counter()
+        kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
+        assessment, alerts = self._intent(frame, tracks, est, kin)
+        timings["intent"] = (time.perf_counter() - t3) * 1e3
+        return dets, tracks, est, assessment, alerts
+
+    def perceive(
+        self, frame: Frame, truth: DetectorTruth | None, timings: dict[str, float]
+    ) -> tuple[Detections, Tracks, Estimates]:
+        """``process`` up to the estimator (what a cooperative sender shares, ``sim.cooperation``);
+        stage times (ms) into ``timings``."""
         tp = time.perf_counter()
         image = self.preprocess(frame.image)
         t0 = time.perf_counter()
@@ -133,22 +147,31 @@ class PerceptionStack:
         t2 = time.perf_counter()
         est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
         t3 = time.perf_counter()
-        kin = Kinematics(class_id=tracks.class_id, age=tracks.age, **est.kinematics_fields())
-        assessment, alerts = self._intent(frame, tracks, est, kin)
-        t4 = time.perf_counter()
         timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - te) * 1e3,
-                       estimate=(t3 - t2) * 1e3, intent=(t4 - t3) * 1e3)
+                       estimate=(t3 - t2) * 1e3)
         if self.embedder is not None:
             timings["embed"] = (te - t1) * 1e3
-        return dets, tracks, est, assessment, alerts
+        return dets, tracks, est
 
     def _intent(self, frame: Frame, tracks: Tracks, est: Estimates, kin: Kinematics) -> tuple[Assessment, list[Alert]]:
         """Intent and alerts of one frame's tracks; a frame without ego speed is assessed with a NaN
-        ego speed (unknown, not 0: ``intent.labels``, "Without ego speed")."""
+        ego speed (unknown, not 0: ``intent.labels``, "Without ego speed"). With a ``fusion``
+        stage (``intent.cooperative``), of the union of the tracks and the objects only others
+        see; the tracks' rows are returned, the others' stay in ``fusion.remote``."""
         odo = frame.odometry
         ego_speed = odo.speed if getattr(odo, "speed_known", True) else float("nan")
+        ids, classes = tracks.track_id, tracks.class_id
+        if self.fusion is not None:  # the ego alone too, for comparison (``FusionStage.alone``)
+            alone = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
+            self.fusion.alone_alerts = self.fusion.alone.update(frame.t, ids, classes, kin.range, alone)
+            kin, ids, classes = self.fusion(frame, tracks, est, kin)
+            for old, new in self.fusion.handovers if self.fusion.enabled else ():
+                self.alerts.hand_over(old, new)
         assessment = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
-        return assessment, self.alerts.update(frame.t, tracks.track_id, tracks.class_id, est.range, assessment)
+        alerts = self.alerts.update(frame.t, ids, classes, kin.range, assessment)
+        if self.fusion is not None:
+            assessment = self.fusion.split(assessment)
+        return assessment, alerts
 
     def _features(self, image: np.ndarray | None, dets: Detections) -> np.ndarray | None:
         """Appearance features (N, D) of the detections the tracker asks for (NaN rows for the

@@ -17,16 +17,18 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import NEVER, Kinematics, assess
 from lookahead.perception.camera import CameraModel, truncation
 from lookahead.perception.detections import CLASS_ID
+from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
 from lookahead.sim.layout import ego_frame
 
 if TYPE_CHECKING:
-    from lookahead.sim.world import World
+    from lookahead.sim.world import Viewpoint, World
 
 Silhouettes = Callable[[list[int], tuple[int, int, int, int]], np.ndarray]
 """``(actor ids, pixel window (u0, v0, u1, v1)) -> (H, W) segmentation of those actors alone``."""
@@ -34,6 +36,7 @@ Silhouettes = Callable[[list[int], tuple[int, int, int, int]], np.ndarray]
 GROUND_LEVEL = 0.85  # depth / flat-ground depth above which a pixel is ground level (~0.2 m high for a camera at 1.4 m)
 GT_MAX_RANGE = 200.0  # m; actors farther than this (or > 10 m behind) are left out
 OBSTACLE_CLASS_ID = -1  # static obstacles are not a detection class
+TRUTH_IOU = 0.3  # least IoU of a track's box with an actor's for ``truth_ids``
 
 
 @dataclass
@@ -199,15 +202,27 @@ def compute_ground_truth(
     return gt if seg is None else with_visibility(gt, camera, seg, depth, silhouettes, ground_depth)
 
 
-def world_truth(world: World, camera: CameraModel, config: IntentConfig) -> GroundTruth:
+def world_truth(world: World, camera: CameraModel, config: IntentConfig,
+                viewpoint: Viewpoint | None = None) -> GroundTruth:
     """Ground truth of the world's current state without a render: visible boxes are the
     in-image amodal boxes, visible fractions estimated from box overlap
-    (``occlusion_from_boxes``), ``pixels`` -1; ``with_visibility`` measures them on a render."""
-    st = world.agent_states()
-    ox, oy, oyaw = world.ego_pose()
+    (``occlusion_from_boxes``), ``pixels`` -1; ``with_visibility`` measures them on a render.
+
+    ``viewpoint``: of a camera other than the ego's (``sim.world.Viewpoint``), in its frame;
+    it sees the ego (actor ``EGO_ACTOR_ID``) and not its carrier."""
+    with_ego = viewpoint is not None
+    viewed = world.viewed_agents(with_ego)
+    st = world.agent_states(with_ego)
+    if viewpoint is None:
+        (ox, oy, oyaw), speed = world.ego_pose(), float(world.ego.speed)
+        w, accel = world.odometry.yaw_rate, world.odometry.accel
+        seen = np.ones(len(st.ids), dtype=bool)
+    else:
+        (ox, oy, oyaw), speed, w, accel = viewpoint.pose, viewpoint.speed, viewpoint.yaw_rate, viewpoint.accel
+        seen = st.ids != (viewpoint.carrier if viewpoint.carrier is not None else -1)
     rel = ego_frame(np.array([ox, oy]), oyaw, st.xy)
-    idx = np.nonzero((rel[:, 0] > -10.0) & (rel[:, 0] < GT_MAX_RANGE + 20.0))[0]
-    shapes = [world.agents[i].identity.shape for i in idx]
+    idx = np.nonzero(seen & (rel[:, 0] > -10.0) & (rel[:, 0] < GT_MAX_RANGE + 20.0))[0]
+    shapes = [viewed[i].identity.shape for i in idx]
     phases = st.gait_phase[idx]
     # Actor-local origin in the ego frame: on the surface it stands on (pavements are raised).
     base = np.column_stack([rel[idx], world.layout.surface_height(st.xy[idx])])
@@ -225,7 +240,7 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig) -> Grou
     )
     shapes = [sh for sh, k in zip(shapes, ranged, strict=True) if k]
     phases = phases[ranged]
-    agents = [world.agents[i] for i in idx]
+    agents = [viewed[i] for i in idx]
     n = len(idx)
     half_w = (corners[..., 1].max(axis=1) - corners[..., 1].min(axis=1)) / 2.0
 
@@ -237,8 +252,7 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig) -> Grou
     # Kinematics in the ego frame.
     spd = st.speed[idx]
     vg = np.column_stack([spd * np.cos(ryaw), spd * np.sin(ryaw)])
-    w = world.odometry.yaw_rate
-    rr = vg[:, 0] - world.ego.speed + w * centre[:, 1]
+    rr = vg[:, 0] - speed + w * centre[:, 1]
     lr = vg[:, 1] - w * centre[:, 0]
 
     cam_depth = camera.ego_to_camera(centre)[:, 2] if n else np.zeros(0)
@@ -264,7 +278,7 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig) -> Grou
         accel_x=st.accel[idx] * np.cos(ryaw),
         height=size[:, 2],
     )
-    a = assess(kin, config, ego_speed=float(world.ego.speed), ego_yaw_rate=w, ego_accel=world.odometry.accel)
+    a = assess(kin, config, ego_speed=speed, ego_yaw_rate=w, ego_accel=accel)
     return GroundTruth(
         actor_id=ids,
         name=[ag.identity.name for ag in agents],
@@ -293,6 +307,37 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig) -> Grou
         ettc=a.ettc,
         decel_req=a.decel_req,
     )
+
+
+def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
+    """What a simulated detector may see: visible boxes of detection-class actors."""
+    keep = (gt.class_id >= 0) & np.all(np.isfinite(gt.visible), axis=1) & (gt.visible_fraction > 0)
+    return DetectorTruth(
+        width=camera.width,
+        height=camera.height,
+        xyxy=gt.visible[keep],
+        class_id=gt.class_id[keep],
+        source_id=gt.actor_id[keep],
+        range_m=gt.range[keep],
+        visible_fraction=gt.visible_fraction[keep],
+        truncation=gt.truncation[keep],
+    )
+
+
+def truth_ids(xyxy: np.ndarray, gt: GroundTruth, camera: CameraModel, min_iou: float = TRUTH_IOU) -> np.ndarray:
+    """(N,) the ground-truth actor of each box (a track's), -1 none: the assignment of largest
+    total IoU with the actors' in-image amodal boxes (a coasting track's box is where its hidden
+    object is), pairs under ``min_iou`` left out. For scoring only."""
+    out = np.full(len(xyxy), -1, dtype=np.int64)
+    if not len(xyxy) or not len(gt):
+        return out
+    boxes = clip_boxes(np.nan_to_num(gt.amodal), camera.width, camera.height)
+    boxes[gt.truncation >= 1.0] = 0.0
+    iou = iou_matrix(np.nan_to_num(np.asarray(xyxy, dtype=np.float64)), boxes)
+    rows, cols = linear_sum_assignment(-iou)
+    ok = iou[rows, cols] >= min_iou
+    out[rows[ok]] = gt.actor_id[cols[ok]]
+    return out
 
 
 def with_visibility(

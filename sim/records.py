@@ -58,6 +58,8 @@ class TickRecord:
     alerts: list = field(default_factory=list)
     collisions: list[Collision] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    cooperative: dict | None = None  # other cameras' objects and their fusion (``sim.cooperation``); None: none
+    sender_frames: dict[str, Frame] = field(default_factory=dict)  # other cameras' frames by sender (images if rendered)
 
     def to_dict(self) -> dict:
         d = {
@@ -74,6 +76,8 @@ class TickRecord:
             "alerts": [a.to_dict() if hasattr(a, "to_dict") else a for a in self.alerts],
             "collisions": [c.to_dict() for c in self.collisions],
         }
+        if self.cooperative is not None:  # only with other cameras: other runs record exactly as before
+            d["cooperative"] = self.cooperative
         return jsonable(d)
 
 

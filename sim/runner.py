@@ -26,27 +26,37 @@ from collections import deque
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from lookahead.intent.alerts import Alert
 from lookahead.intent.config import IntentConfig
+from lookahead.intent.cooperative import FusionStage
 from lookahead.intent.labels import Assessment, Risk
 from lookahead.intent.stack import alert_in_path, build_stack
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.config import SettingsError
+from lookahead.perception.cooperative import FusionNode
 from lookahead.perception.detections import Detections
-from lookahead.perception.detectors.base import Detector, DetectorTruth
+from lookahead.perception.detectors.base import Detector
 from lookahead.perception.estimator import Estimates
 from lookahead.perception.frame import Frame
 from lookahead.perception.tracker import Tracks
 from lookahead.sim.aeb import Aeb
+from lookahead.sim.cooperation import Cooperation, cooperative_record
 from lookahead.sim.driver import Driver, combine_brakes
 from lookahead.sim.ego import Collision
-from lookahead.sim.groundtruth import GroundTruth, with_visibility, world_truth
+from lookahead.sim.groundtruth import (
+    GroundTruth,
+    detector_truth,
+    truth_ids,
+    world_truth,
+)
 from lookahead.sim.records import Sink, TickRecord
 from lookahead.sim.scenario import Scenario, ScenarioError, mounted_camera
 from lookahead.sim.world import World
+
+if TYPE_CHECKING:
+    from lookahead.sim.rendered_camera import RenderedCamera
 
 log = logging.getLogger(__name__)
 
@@ -72,21 +82,6 @@ def _as_scenario_error() -> Iterator[None]:
         raise ScenarioError(str(e)) from None
 
 
-def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
-    """What a simulated detector may see: visible boxes of detection-class actors."""
-    keep = (gt.class_id >= 0) & np.all(np.isfinite(gt.visible), axis=1) & (gt.visible_fraction > 0)
-    return DetectorTruth(
-        width=camera.width,
-        height=camera.height,
-        xyxy=gt.visible[keep],
-        class_id=gt.class_id[keep],
-        source_id=gt.actor_id[keep],
-        range_m=gt.range[keep],
-        visible_fraction=gt.visible_fraction[keep],
-        truncation=gt.truncation[keep],
-    )
-
-
 @dataclass
 class Perceived:
     """One camera frame, its ground truth, and what the perception stack made of it."""
@@ -99,6 +94,7 @@ class Perceived:
     assessment: Assessment
     alerts: list[Alert]
     timings: dict[str, float]  # ms per stage
+    cooperative: dict | None = None  # the record's ``cooperative`` entry (``sim.cooperation.cooperative_record``)
 
 
 @dataclass
@@ -113,6 +109,7 @@ class _Snapshot:
     ego: dict  # the record's ego entry
     collisions: list[Collision]  # ego collisions since the previous frame
     timings: dict[str, float]  # ms per stage
+    views: list = field(default_factory=list)  # sim.cooperation.SenderView: what other cameras see (and send)
 
 
 @dataclass
@@ -197,22 +194,27 @@ class Runner:
                 perception, self.camera, scenario.camera.rate, intent=self.intent_config,
                 alerts=scenario.alerts, detector=detector, seed=scenario.seed, render=render,
             )
-        self.renderer = None  # sim.render_process.RenderProcess: the renderer in its worker process
-        self.silhouettes = None  # sim.silhouettes.Silhouettes: actors alone, for ground truth's visibility
-        self.ground_depth = None  # (H, W) m, the flat ground's depth per pixel (ground truth's visibility)
+        self.rig: RenderedCamera | None = None  # the ego camera's render worker and ground truth's visibility
         if render:
             # lazy: PyBullet only when rendering
-            from lookahead.sim.render_process import RenderProcess
-            from lookahead.sim.silhouettes import Silhouettes
+            from lookahead.sim.rendered_camera import RenderedCamera
 
             backend = renderer_backend or scenario.camera.renderer  # auto: the faster here (measured once)
             shapes = {a.identity.actor_id: a.identity.shape for a in self.world.agents}
-            self.renderer = RenderProcess(self.camera, self.world.layout, scenario.seed, backend, shapes, scenario,
-                                          gl_threads=RENDER_WORKER_GL_THREADS if overlap else None)
-            self.silhouettes = Silhouettes(self.camera, self.world.layout, scenario.seed, far=self.renderer.far)
-            for actor_id, shape in shapes.items():
-                self.silhouettes.add_actor(actor_id, shape)
-            self.ground_depth = self.camera.ground_depth().astype(np.float32)
+            self.rig = RenderedCamera(self.camera, self.world.layout, scenario.seed, backend, shapes, scenario,
+                                      gl_threads=RENDER_WORKER_GL_THREADS if overlap else None)
+        self.cooperation = None  # sim.cooperation.Cooperation: other cameras and the link (``cooperative``)
+        self.fusion: FusionStage | None = None  # the ego's fusion stage, before its intent
+        if scenario.cooperative is not None:
+            with _as_scenario_error():
+                self.cooperation = Cooperation(
+                    scenario.cooperative, self.world, scenario, self.intent_config, render=render,
+                    backend=renderer_backend or scenario.camera.renderer,
+                    gl_threads=RENDER_WORKER_GL_THREADS if overlap else None)
+            node = FusionNode(length=scenario.ego.length, width=scenario.ego.width)
+            self.fusion = FusionStage(node, self.perception.estimator.priors, enabled=scenario.cooperative.fusion,
+                                      alert_config=self.perception.alerts.config)
+            self.perception.fusion = self.fusion
         self.aeb = Aeb(scenario.ego.aeb_config) if scenario.ego.aeb_config is not None else None
         self.driver = Driver(scenario.ego.driver) if scenario.ego.driver is not None else None
         self.driver_brake: float | None = None  # the driver's brake command (m/s^2) of the last tick
@@ -241,32 +243,30 @@ class Runner:
         frame = Frame(tick=w.tick, t=w.t, camera=self.camera, odometry=w.odometry, index=self.frame_index)
         self.frame_index += 1
         timings = {"sim": sim_ms, "gt": (time.perf_counter() - t0) * 1e3}
-        return _Snapshot(frame, (x, y, yaw), w.actor_poses(), gt, ego, list(collisions), timings)
+        snap = _Snapshot(frame, (x, y, yaw), w.actor_poses(), gt, ego, list(collisions), timings)
+        if self.cooperation is not None:  # the other cameras see this tick (perceived with this frame)
+            t1 = time.perf_counter()
+            snap.views = self.cooperation.look(w, frame.index)
+            timings["senders"] = (time.perf_counter() - t1) * 1e3
+        return snap
 
     def _request(self, snap: _Snapshot) -> None:
         """Ask the render worker for ``snap``'s frame (if rendering); ``_develop`` collects it."""
-        if self.renderer is not None:
-            self.renderer.submit(snap.frame.index, snap.pose, snap.poses)
+        if self.rig is not None:
+            self.rig.submit(snap.frame.index, snap.pose, snap.poses)
 
     def _develop(self, snap: _Snapshot) -> _Snapshot:
         """Collect ``snap``'s frame from the render worker (asked by ``_request``): the image
         (with weather), depth and segmentation, then the ground truth's visibility
         (``with_visibility``). Timings: ``render``, the worker's ms (render and weather); ``gt``
         gains the visibility's."""
-        if self.renderer is None:
+        if self.rig is None:
             snap.timings["render"] = 0.0
             return snap
-        image, depth, seg, worker_ms = self.renderer.result()
-        t0 = time.perf_counter()
-        silhouettes = self.silhouettes
-
-        def alone(ids: list[int], window: tuple[int, int, int, int]) -> np.ndarray:
-            return silhouettes(snap.pose, snap.poses, ids, window)
-
-        snap.gt = with_visibility(snap.gt, self.camera, seg, depth, alone, self.ground_depth)
+        image, depth, seg, snap.gt, worker_ms, visibility_ms = self.rig.develop(snap.gt, snap.pose, snap.poses)
         snap.frame.image, snap.frame.depth, snap.frame.segmentation = image, depth, seg
         snap.timings["render"] = worker_ms
-        snap.timings["gt"] += (time.perf_counter() - t0) * 1e3
+        snap.timings["gt"] += visibility_ms
         return snap
 
     def frame(self) -> tuple[Frame, GroundTruth, dict[str, float]]:
@@ -282,18 +282,30 @@ class Runner:
         decision on it, to act ``latency`` frames later, and hands over those due now
         (``_apply_decisions``)."""
         frame, timings = snap.frame, snap.timings
+        if self.cooperation is not None:  # the senders' messages of this tick go out; the ego gets what arrived
+            t0 = time.perf_counter()
+            self.cooperation.send(snap.views, frame.t)
+            self.fusion.receive(self.cooperation.receive(frame.t), snap.pose)
+            timings["senders"] += (time.perf_counter() - t0) * 1e3
         dets, tracks, est, assessment, alerts = self.perception.process(
             frame, detector_truth(snap.gt, self.camera), timings
         )
+        cooperative = None
+        if self.fusion is not None:
+            own_truth = truth_ids(tracks.xyxy, snap.gt, self.camera)[self.fusion.own_track_rows]
+            cooperative = cooperative_record(snap.views, self.fusion, own_truth, self.cooperation.link)
         if self.aeb is not None or self.driver is not None:
-            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)
-            fcw = alert_in_path(self.perception.alerts.active(), tracks.track_id.tolist(),
-                                assessment.in_path.tolist(), Risk.HIGH)
+            crit, nearest = self.perception.critical_in_path(tracks, est, assessment)  # own camera's objects only
+            ids, in_path = tracks.track_id.tolist(), assessment.in_path.tolist()
+            remote = self.fusion.remote if self.fusion is not None else None
+            if remote is not None:  # the driver is warned of what only others see too
+                ids, in_path = ids + remote.ids.tolist(), in_path + remote.assessment.in_path.tolist()
+            fcw = alert_in_path(self.perception.alerts.active(), ids, in_path, Risk.HIGH)
             acts = frame.index + self.latency  # the frame whose tick the decision is made at
             t = (frame.tick + self.latency * self.frame_every) * self.world.dt
             self._decisions.append(_Decision(acts, t, crit, nearest, frame.odometry.speed, fcw))
             self._apply_decisions()
-        return Perceived(frame, snap.gt, dets, tracks, est, assessment, alerts, timings)
+        return Perceived(frame, snap.gt, dets, tracks, est, assessment, alerts, timings, cooperative)
 
     def _record(self, snap: _Snapshot, p: Perceived, t_start: float) -> None:
         """``p`` as a ``TickRecord`` to every sink; ``tick`` timing = sim + everything since ``t_start``."""
@@ -302,6 +314,7 @@ class Runner:
             tick=snap.frame.tick, frame_index=snap.frame.index, t=snap.frame.t, ego=snap.ego, frame=p.frame,
             ground_truth=p.gt, detections=p.detections, tracks=p.tracks, estimates=p.est,
             assessments=p.assessment, alerts=p.alerts, collisions=snap.collisions, timings=timings,
+            cooperative=p.cooperative, sender_frames={v.name: v.frame for v in snap.views},
         )
         t0 = time.perf_counter()
         for s in self.sinks:
@@ -450,9 +463,18 @@ class Runner:
         return p
 
     def close(self) -> None:
-        if self.renderer is not None:
-            self.renderer.close()
-            self.renderer = None
-        if self.silhouettes is not None:
-            self.silhouettes.close()
-            self.silhouettes = None
+        if self.rig is not None:
+            self.rig.close()
+            self.rig = None
+        if self.cooperation is not None:
+            self.cooperation.close()
+
+    @property
+    def renderer(self) -> Any:
+        """The ego camera's ``RenderProcess`` (None without rendering)."""
+        return None if self.rig is None else self.rig.process
+
+    @property
+    def silhouettes(self) -> Any:
+        """The ego camera's actors alone (``sim.silhouettes.Silhouettes``; None without rendering)."""
+        return None if self.rig is None else self.rig.silhouettes

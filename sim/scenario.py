@@ -42,6 +42,7 @@ from lookahead.perception.safe_yaml import YamlError, read_yaml_text
 from lookahead.perception.yaml_model import field_path, format_validation  # noqa: F401  (re-exported)
 from lookahead.sim.aeb import AebConfig
 from lookahead.sim.driver import DriverConfig
+from lookahead.sim.link import LinkConfig
 from lookahead.sim.shapes import SUBTYPES
 
 ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
@@ -373,6 +374,69 @@ class ActorSpec(Strict):
         return self
 
 
+def repeated(values: list[str]) -> list[str]:
+    """The values that occur more than once, sorted."""
+    return sorted({v for v in values if values.count(v) > 1})
+
+
+class SenderCameraSpec(Strict):
+    """A sender's camera: like the ego's (``CameraSpec``) without a rate (it captures with the ego's frames)."""
+
+    width: int = Field(640, ge=64, le=MAX_IMAGE_PX)
+    height: int = Field(360, ge=48, le=MAX_IMAGE_PX)
+    fov_h: float = Field(90.0, gt=10.0, lt=170.0, description="horizontal field of view (deg)")
+    mount: MountSpec = Field(default_factory=MountSpec, description="on the carrier's frame (front bumper, or"
+                             " the roadside unit's foot)")
+
+
+class RoadsidePose(Strict):
+    x: Longitudinal = Field(description="ego-relative longitudinal (m) at t=0")
+    y: Lateral = Field(description="ego-relative lateral (m, left +) at t=0")
+    heading: Heading = Field(0.0, description="deg, world; where the camera looks")
+
+
+class SenderSpec(Strict):
+    """A camera elsewhere in the world that shares what it sees (``sim.cooperation``): on a
+    scenario actor (``actor``) or a roadside unit standing at ``at``."""
+
+    name: str = Field(min_length=1)
+    actor: str | None = Field(None, description="the id of the actor carrying the camera")
+    at: RoadsidePose | None = Field(None, description="a roadside unit's place and heading")
+    camera: SenderCameraSpec = Field(default_factory=SenderCameraSpec)
+    perception: PerceptionSpec = Field(
+        default_factory=lambda: PerceptionSpec(detector=DetectorSpec(kind="gt")),
+        description="its own stack's settings (default: the gt detector; onnx needs the run rendered)",
+    )
+
+    @model_validator(mode="after")
+    def _one_carrier(self) -> SenderSpec:
+        if (self.actor is None) == (self.at is None):
+            raise ValueError("give either actor (a camera on a scenario actor) or at (a roadside unit)")
+        return self
+
+
+class PoseNoiseSpec(Strict):
+    xy: float = Field(0.2, ge=0.0, le=20.0, description="std of a sender's position (m), per axis")
+    heading: float = Field(0.3, ge=0.0, le=20.0, description="std of a sender's heading (deg)")
+
+
+class CooperativeSpec(Strict):
+    """Other cameras' objects shared over a link and fused into the ego's (``sim.cooperation``,
+    ``perception.cooperative``)."""
+
+    senders: list[SenderSpec] = Field(min_length=1)
+    link: LinkConfig = Field(default_factory=LinkConfig)
+    pose_noise: PoseNoiseSpec = Field(default_factory=PoseNoiseSpec, description="of every message's sender pose")
+    fusion: bool = Field(True, description="false: the messages are fused and recorded, but intent and alerts"
+                         " see the ego's own objects only (the comparison run)")
+
+    @model_validator(mode="after")
+    def _unique(self) -> CooperativeSpec:
+        if dup := repeated([s.name for s in self.senders]):
+            raise ValueError(f"sender names must be unique, repeated: {dup}")
+        return self
+
+
 RISK_LEVELS: tuple[str, ...] = tuple(r.name for r in Risk)  # SAFE LOW MEDIUM HIGH CRITICAL
 RiskLevel = Literal[RISK_LEVELS]  # type: ignore[valid-type]
 
@@ -477,13 +541,14 @@ class Scenario(Strict):
         default_factory=AlertConfig, description="alert debounce and hysteresis (intent.alerts), in camera frames"
     )
     actors: list[ActorSpec] = Field(default_factory=list)
+    cooperative: CooperativeSpec | None = Field(None, description="cameras of other road users and roadside"
+                                                " units whose objects the ego fuses (absent: none)")
     expect: list[Expectation] = Field(default_factory=list, description="checks scored after the run")
 
     @model_validator(mode="after")
     def _consistent(self) -> Scenario:
         ids = [a.id for a in self.actors]
-        dup = sorted({i for i in ids if ids.count(i) > 1})
-        if dup:
+        if dup := repeated(ids):
             raise ValueError(f"actor ids must be unique, repeated: {dup}")
         if self.ego.lane >= self.road.lanes:
             raise ValueError(f"ego.lane {self.ego.lane} is outside the road's {self.road.lanes} lanes")
@@ -507,6 +572,10 @@ class Scenario(Strict):
             for s in a.script:
                 if s.when.actor is not None and s.when.actor.id not in ids:
                     raise ValueError(f"actor {a.id}: trigger names unknown actor {s.when.actor.id!r}")
+        for i, sender in enumerate(self.cooperative.senders if self.cooperative else []):
+            if sender.actor is not None and sender.actor not in ids:
+                raise _error_at(("cooperative", "senders", i, "actor"), f"unknown actor, expected one of {ids}",
+                                sender.actor)
         for i, e in enumerate(self.expect):
             kind = "alert" if e.alert is not None else "no_alert" if e.no_alert is not None else None
             if kind and (actor := getattr(e, kind).actor) not in ids:

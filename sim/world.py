@@ -23,6 +23,20 @@ from lookahead.sim.scenario import Scenario, TriggerSpec
 from lookahead.sim.shapes import make_shape
 
 TRAFFIC_MIX = (("car", 0.8), ("truck", 0.1), ("bus", 0.1))
+EGO_ACTOR_ID = 0  # the ego's actor id where other cameras see it
+
+
+@dataclass(frozen=True)
+class Viewpoint:
+    """Where a camera other than the ego's stands (``World.viewpoint``, or a roadside unit):
+    the world pose (x, y, heading; m, rad) of its frame's origin, how that moves (m/s,
+    rad/s, m/s^2), and the actor carrying it (None: none), which it does not see."""
+
+    pose: tuple[float, float, float]
+    speed: float = 0.0
+    yaw_rate: float = 0.0
+    accel: float = 0.0
+    carrier: int | None = None
 
 
 @dataclass
@@ -75,6 +89,10 @@ class World:
         lane = self.network.get_lane(lane_index)
         self.ego = EgoVehicle(self.road, lane.position(ego_spec.s, 0.0), 0.0, ego_spec, lane_index)
         self.road.vehicles.append(self.ego)
+        # what other cameras see of the ego (``viewpoint``): a sedan; id 0 is the ego's
+        self.ego.identity = Identity(EGO_ACTOR_ID, "ego", "car", "sedan", make_shape("car", "sedan", self._rng(4)),
+                                     scripted=False)
+        self.ego.gait_phase = 0.0
         front0 = np.array([ego_spec.s + ego_spec.length / 2.0, self.geometry.lane_y(ego_spec.lane)])
         self._origin0 = front0
 
@@ -148,21 +166,38 @@ class World:
         y = -float(self.ego.position[1]) + half * np.sin(yaw)
         return x, y, yaw
 
-    def actor_poses(self) -> dict[int, tuple[float, float, float, float]]:
-        """Actor id -> world (x, y, heading, gait phase) (m, rad): what the renderer poses."""
-        st = self.agent_states()
+    def actor_poses(self, with_ego: bool = False) -> dict[int, tuple[float, float, float, float]]:
+        """Actor id -> world (x, y, heading, gait phase) (m, rad): what the renderer poses; with
+        ``with_ego``, the ego's body too (``EGO_ACTOR_ID``), for other cameras."""
+        st = self.agent_states(with_ego)
         return {int(i): (float(x), float(y), float(h), float(p))
                 for i, (x, y), h, p in zip(st.ids, st.xy, st.yaw, st.gait_phase, strict=True)}
 
-    def agent_states(self) -> AgentStates:
-        a = self.agents
+    def viewed_agents(self, with_ego: bool = False) -> list:
+        """The non-ego agents, and the ego last with ``with_ego`` (what another camera may see)."""
+        return [*self.agents, self.ego] if with_ego else self.agents
+
+    def viewpoint(self, actor_id: int) -> Viewpoint:
+        """Where a camera on actor ``actor_id`` stands: the middle of its front edge on the
+        ground, heading, speed and yaw rate (world; m, rad, m/s)."""
+        st = self.agent_states()
+        k = int(np.nonzero(st.ids == actor_id)[0][0])
+        yaw, half = float(st.yaw[k]), float(st.length[k]) / 2.0
+        pose = (float(st.xy[k, 0]) + half * np.cos(yaw), float(st.xy[k, 1]) + half * np.sin(yaw), yaw)
+        return Viewpoint(pose, float(st.speed[k]), float(st.yaw_rate[k]), float(st.accel[k]), actor_id)
+
+    def agent_states(self, with_ego: bool = False) -> AgentStates:
+        """The agents' states (``viewed_agents``: with ``with_ego``, the ego's last, its
+        acceleration and yaw rate from its odometry)."""
+        a = self.viewed_agents(with_ego)
+        ego_row = (np.array([self.odometry.accel]), np.array([self.odometry.yaw_rate])) if with_ego else ((), ())
         return AgentStates(
             ids=np.array([v.identity.actor_id for v in a], dtype=np.int64),
             xy=np.array([[v.position[0], -v.position[1]] for v in a], dtype=np.float64).reshape(-1, 2),
             yaw=np.array([-v.heading for v in a], dtype=np.float64),
             speed=np.array([v.speed for v in a], dtype=np.float64),
-            accel=self._accel.copy(),
-            yaw_rate=self._yaw_rate.copy(),
+            accel=np.concatenate([self._accel, *ego_row[:1]]),
+            yaw_rate=np.concatenate([self._yaw_rate, *ego_row[1:]]),
             gait_phase=np.array([getattr(v, "gait_phase", 0.0) for v in a], dtype=np.float64),
             length=np.array([v.LENGTH for v in a], dtype=np.float64),
             width=np.array([v.WIDTH for v in a], dtype=np.float64),

@@ -318,10 +318,12 @@ def run_scenario(
     scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
     video: Path | None = None, rerun_file: Path | None = None, lang: str = "en", rerun_live: bool = False,
     detector: str | None = None, model: Path | None = None, aeb: str | None = None, raw_video: Path | None = None,
-    stack: str | None = None,
+    stack: str | None = None, coop_video: Path | None = None,
 ) -> dict:
     """Run one scenario into ``out``; returns the run summary. ``detector`` / ``model`` / ``aeb``
-    override the scenario's (``sim.scenario.with_detector``, ``with_aeb``).
+    override the scenario's (``sim.scenario.with_detector``, ``with_aeb``). ``coop_video``: the
+    cooperative perception MP4 (``tools.sinks.cooperative_view``; its key frame's PNGs go to
+    ``out/cooperative/``); a scenario without a ``cooperative`` section is refused.
 
     The runner (renderer, detector model) is built before any sink, so a bad model
     or renderer fails before an output file is touched.
@@ -329,7 +331,10 @@ def run_scenario(
     from lookahead.sim.scenario import load_scenario, with_aeb, with_detector, with_stack
 
     scenario = with_stack(with_aeb(with_detector(load_scenario(scenario_path), detector, model), aeb), stack)
-    for path in (video, raw_video):  # a path that can never be written fails before the simulator loads
+    if coop_video is not None and scenario.cooperative is None:
+        fail(f"--coop-video: {scenario_path}: the scenario has no `cooperative:` section (no other cameras, "
+             "so no cooperative records to draw)")
+    for path in (video, raw_video, coop_video):  # a path that can never be written fails before the simulator loads
         if path is not None:
             from lookahead.tools.sinks.video import check_video_path
 
@@ -352,6 +357,10 @@ def run_scenario(
             from lookahead.tools.sinks.video import VideoSink
 
             sinks.append(VideoSink(raw_video, fps=scenario.camera.rate, raw=True))
+        if coop_video is not None:
+            from lookahead.tools.sinks.cooperative_view import CooperativeVideoSink, cameras_of
+
+            sinks.append(CooperativeVideoSink(coop_video, out, fps=scenario.camera.rate, cameras=cameras_of(scenario)))
         if rerun_file is not None or rerun_live:
             from lookahead.tools.sinks.rerun import RerunSink
 
@@ -387,6 +396,11 @@ def run(
     model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
     aeb: Annotated[str | None, aeb_param()] = None,
     stack: Annotated[str | None, typer.Option(help=STACK_HELP)] = None,
+    coop_video: Annotated[Path | None, typer.Option(
+        "--coop-video", help="cooperative perception MP4 (own / received / fused / matches and a world map), e.g. "
+                             "RUN_DIR/cooperative.mp4; its key frame's PNGs go to RUN_DIR/cooperative/ (scenarios "
+                             "with a `cooperative:` section only)",
+    )] = None,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
@@ -395,7 +409,7 @@ def run(
         raise typer.BadParameter("--lang must be en or zh")
     summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
                            rerun_file=rerun_file, lang=lang, rerun_live=rerun_live, detector=detector, model=model,
-                           aeb=aeb, raw_video=raw_video, stack=stack)
+                           aeb=aeb, raw_video=raw_video, stack=stack, coop_video=coop_video)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
@@ -1316,6 +1330,20 @@ def bench_appearance(
     from lookahead.tools.bench.appearance import bench_appearance as run_bench
 
     save_bench(run_bench(objects=objects, frames=frames, repeats=repeats), out)
+
+
+@bench_app.command("fusion")
+@user_errors
+def bench_fusion(
+    out: Annotated[Path, typer.Option("--out", help="benchmark JSON to write")],
+    senders: Annotated[int, typer.Option(min=1, max=4, help="other cameras sending objects")] = 3,
+    objects: Annotated[int, typer.Option(min=1, max=200, help="road users in the scene")] = 30,
+    frames: Annotated[int, typer.Option(min=1, help="ticks timed")] = 200,
+) -> None:
+    """The ego's cooperative fusion per tick: every sender's objects into its frame, matched and fused."""
+    from lookahead.tools.bench.fusion import bench_fusion as run_bench
+
+    save_bench(run_bench(senders=senders, objects=objects, frames=frames), out)
 
 
 @bench_app.command("watch")

@@ -68,3 +68,21 @@ def test_a_track_that_blinks_out_keeps_its_alert_state():
     mgr.update(0.1, np.array([], dtype=int), np.array([], dtype=int), np.array([]), frame([]))
     ev = mgr.update(0.2, np.array([1]), np.array([0]), np.array([9.0]), frame([H]))
     assert ev == []  # no second warning for the same object
+
+
+def test_a_hand_over_moves_the_alert_to_the_new_id_without_a_new_event():
+    import numpy as np
+
+    from lookahead.intent.alerts import AlertConfig, AlertManager
+    from lookahead.intent.labels import Assessment, Label, Risk
+
+    m = AlertManager(AlertConfig())
+    crit = Assessment(ttc=np.array([0.8]), in_path=np.array([True]), risk=np.array([int(Risk.CRITICAL)]),
+                      label=np.array([int(Label.DANGER)]), behaviour=np.array([0]))
+    events = []
+    for k in range(4):
+        events += m.update(0.1 * k, np.array([1_000_000]), np.array([0]), np.array([8.0]), crit)
+    assert [e.kind for e in events] == ["critical"]
+    m.hand_over(1_000_000, 4)
+    later = m.update(0.5, np.array([4]), np.array([0]), np.array([6.0]), crit)
+    assert later == [] and m.active() == {4: int(Risk.CRITICAL)}

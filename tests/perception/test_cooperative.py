@@ -6,13 +6,18 @@ import numpy as np
 import pytest
 
 from lookahead.perception.cooperative import (
+    REMOTE_ID_BASE,
+    FusionNode,
     ObjectList,
     SharedObjects,
     fuse,
     match,
+    objects_from_estimates,
     range_covariance,
     to_frame,
 )
+from lookahead.perception.detections import CLASS_ID
+from lookahead.perception.estimator import Estimates
 from lookahead.sim.layout import ego_frame
 
 
@@ -71,10 +76,12 @@ def test_the_lower_variance_source_dominates_the_fusion():
 
 
 def test_matching_is_one_to_one_gated_and_class_aware():
-    own = objects([[20, 0], [20, 3.5], [45, -2]], np.zeros((3, 2)), class_id=[2, 0, 2])
-    other = objects([[20.3, 3.3], [20.2, 0.1], [45, -2], [90, 0]], np.zeros((4, 2)), class_id=[0, 2, 1, 2])
+    car, truck, ped = CLASS_ID["car"], CLASS_ID["truck"], CLASS_ID["pedestrian"]
+    own = objects([[20, 0], [20, 3.5], [45, -2]], np.zeros((3, 2)), class_id=[car, ped, car])
+    other = objects([[20.3, 3.3], [20.2, 0.1], [45, -2], [90, 0]], np.zeros((4, 2)), class_id=[ped, truck, ped, car])
     i, j = match(own, other)
-    assert sorted(zip(i.tolist(), j.tolist(), strict=True)) == [(0, 1), (1, 0)]  # (2, 2): other class
+    # (2, 2): a pedestrian is no car; (0, 1): a car read as a truck is still the same vehicle
+    assert sorted(zip(i.tolist(), j.tolist(), strict=True)) == [(0, 1), (1, 0)]
     fused = fuse(own, other, (i, j))
     assert sorted(fused.source.tolist()) == [0, 1, 1, 2, 2]  # 2 both, 1 own only, 2 other only
     assert len(fuse(own, ObjectList.empty(), match(own, ObjectList.empty()))) == 3
@@ -84,3 +91,76 @@ def test_matching_is_one_to_one_gated_and_class_aware():
 def test_empty_lists_pass_through(n):
     own = objects(np.zeros((n, 2)) + 10, np.zeros((n, 2)))
     assert len(fuse(own, ObjectList.empty(), match(own, ObjectList.empty()))) == n
+
+
+# ---------------------------------------------------------------------- the fusion node
+def message(sender: str, xy, ids, class_id=None, t: float = 0.0, pose=(0.0, 0.0, 0.0)) -> SharedObjects:
+    o = objects(xy, np.zeros((len(xy), 2)), class_id=class_id)
+    o.object_id = np.asarray(ids)
+    return SharedObjects(sender, t, pose, o)
+
+
+def test_others_detection_of_the_receiver_is_dropped_but_a_car_beside_it_stays():
+    car = CLASS_ID["car"]
+    node = FusionNode(length=4.6, width=1.9)
+    # the sender sees the ego (centre 2.3 m behind its front) and a car parked 2.4 m to its right
+    msg = message("oncoming", [[-2.0, 0.2], [-2.3, -2.4]], [7, 8], class_id=[car, car])
+    r = node.update(ObjectList.empty(), [msg], (0.0, 0.0, 0.0), 0.0)
+    assert r.senders[0].fused_id.tolist() == [-1, REMOTE_ID_BASE]  # the nearest is the ego, the other stays
+    assert len(r.objects) == 1 and r.objects.xy[0].tolist() == [-2.3, -2.4]
+    # a pedestrian at the ego's bumper is never the ego
+    ped = message("oncoming", [[-1.0, 0.0]], [9], class_id=[CLASS_ID["pedestrian"]])
+    assert node.update(ObjectList.empty(), [ped], (0.0, 0.0, 0.0), 0.0).senders[0].fused_id[0] >= REMOTE_ID_BASE
+
+
+def test_remote_ids_are_stable_and_a_second_sender_joins_the_first_senders_object():
+    ped = CLASS_ID["pedestrian"]
+    node = FusionNode()
+    own = objects([[20.0, 0.0]], [[0.0, 0.0]], class_id=[ped])
+    own.object_id = np.array([3])
+    a = message("a_car", [[30.0, -4.0], [20.2, 0.1]], [11, 12], class_id=[ped, ped])
+    b = message("b_rsu", [[30.3, -4.1]], [5], class_id=[ped])
+    first = node.update(own, [b, a], (0.0, 0.0, 0.0), 0.0)  # fused in sender name order: a, then b
+    ra, rb = first.senders
+    assert (ra.sender, rb.sender) == ("a_car", "b_rsu")
+    assert ra.fused_id.tolist() == [REMOTE_ID_BASE, 3] and ra.matched.tolist() == [False, True]
+    assert ra.matched_source.tolist() == [-1, 0]  # joined an own object
+    assert rb.fused_id.tolist() == [REMOTE_ID_BASE] and rb.matched_source.tolist() == [1]  # joined a's object
+    src = dict(zip(first.objects.object_id.tolist(), first.objects.source.tolist(), strict=True))
+    assert src == {3: 2, REMOTE_ID_BASE: 1}  # own+a: both; a+b: still only others'
+    assert dict(zip(first.objects.object_id.tolist(), first.own_row.tolist(), strict=True)) == {3: 0, REMOTE_ID_BASE: -1}
+    again = node.update(own, [a], (0.0, 0.0, 0.0), 0.1)
+    assert again.senders[0].fused_id.tolist() == [REMOTE_ID_BASE, 3]  # the same id next frame
+
+
+def test_pose_noise_widens_the_covariance_across_the_line_of_sight():
+    msg = message("rsu", [[40.0, 0.0]], [1], pose=(0.0, 0.0, 0.0))
+    base = to_frame(msg, (0.0, 0.0, 0.0), 0.0).cov[0]
+    noisy = to_frame(SharedObjects("rsu", 0.0, msg.pose, msg.objects, (0.0, np.radians(1.0))),
+                     (0.0, 0.0, 0.0), 0.0).cov[0]
+    assert noisy[1, 1] - base[1, 1] == pytest.approx((40.0 * np.radians(1.0)) ** 2)  # heading x distance
+    assert noisy[0, 0] == pytest.approx(base[0, 0])
+
+
+def test_estimates_become_centres_with_a_systematic_range_error():
+    n = 2
+    est = Estimates.empty(n)
+    est.range[:] = [10.0, 40.0]
+    est.lateral[:] = [0.0, 2.0]
+    est.range_sigma[:] = 0.2
+    est.lateral_sigma[:] = 0.1
+    est.ground_vx[:], est.ground_vy[:] = [5.0, 0.0], [0.0, 0.0]  # the first drives along x, the second stands
+    est.ground_vx_sigma[:], est.ground_vy_sigma[:] = 0.5, 0.5
+    est.settled[:] = [1.0, np.nan]
+    o = objects_from_estimates(np.array([4, 5]), np.array([CLASS_ID["car"]] * n), np.array([0.9, 0.8]), est,
+                               np.array([4.5, 4.5]), np.array([1.8, 1.8]), np.array([0.3, 0.3]))
+    # driving: half a car length beyond the face; standing: it may lie any way, so half way between
+    # its half length and half width, with a quarter of their difference as std
+    np.testing.assert_allclose(o.xy, [[12.25, 0.0], [40.0 + (4.5 + 1.8) / 4, 2.0]])
+    assert o.settled.tolist() == [1.0, 0.0]
+    assert o.cov[1, 0, 0] > 4 * o.cov[0, 0, 0]  # the systematic part grows with range
+    # range 0.2^2 + prior length (0.3 / 2)^2 + lying any way ((4.5 - 1.8) / 4)^2 + 5 % of the range along x
+    assert o.cov[1, 0, 0] == pytest.approx(0.04 + 0.0225 + ((4.5 - 1.8) / 4) ** 2 + (0.05 * o.xy[1, 0]) ** 2)
+    est.range[1] = np.nan
+    assert objects_from_estimates(np.array([4, 5]), np.array([4, 4]), np.array([0.9, 0.8]), est, np.array([4.5, 4.5]),
+                                  np.array([1.8, 1.8]), np.array([0.3, 0.3])).object_id.tolist() == [4]

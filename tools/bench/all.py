@@ -3,7 +3,8 @@
 Runs ``bench sim``, ``bench track``, ``bench detect``, ``bench sinks``, ``bench env``
 (``ForwardTracks-v0`` vs bare highway-env), ``bench sweep`` (16 variants on 1 and 2
 workers and on a local Ray instance; ``sweep_ray_same_results``), ``bench watch`` (the watch pipeline vs its slowest stage), ``bench appearance``
-(the tracker with and without appearance re-identification at 30 objects) and the full
+(the tracker with and without appearance re-identification at 30 objects), ``bench fusion``
+(cooperative fusion of 3 senders x 30 objects per tick) and the full
 rendered loop (``urban_mix``, 640x360, the shipped ONNX detector; ``bench_loop``) on the
 same machine in one run; cases are prefixed with their benchmark's name and all ratios
 are gathered.
@@ -24,6 +25,7 @@ from lookahead.tools.bench.appearance import bench_appearance
 from lookahead.tools.bench.common import bench_sim, case, machine
 from lookahead.tools.bench.detect import bench_detect
 from lookahead.tools.bench.env import bench_env
+from lookahead.tools.bench.fusion import bench_fusion
 from lookahead.tools.bench.sinks import bench_sinks
 from lookahead.tools.bench.sweep import bench_sweep
 from lookahead.tools.bench.track import bench_track
@@ -103,6 +105,7 @@ def bench_all(repeats: int = 3) -> dict:
         "loop": bench_loop(scen / "urban_mix.yaml"),
         "watch": bench_watch(scen / "ped_crossing_nearside.yaml", repeats=repeats),
         "appearance": bench_appearance(objects=30),
+        "fusion": bench_fusion(senders=3, objects=30),
     }
     cases, ratios = {}, {}
     for name, part in parts.items():
@@ -115,4 +118,5 @@ def bench_all(repeats: int = 3) -> dict:
             "loop_slowest_stage_group": parts["loop"]["slowest_stage_group"],
             "sweep_ray_same_results": parts["sweep"].get("ray_same_results"),
             "detect_fps": parts["detect"]["fps"], "track_accuracy": track, "watch_fps": parts["watch"]["fps"],
-            "watch_latency_ms": parts["watch"]["latency_ms"]}
+            "watch_latency_ms": parts["watch"]["latency_ms"],
+            "fusion_matching": {k: parts["fusion"][k] for k in ("matching_precision", "matching_recall")}}

@@ -97,6 +97,36 @@ def table(header: list[str], rows: list[list[object]], classes: list[str] | None
     return f"<table><tr>{head}</tr>{''.join(body)}</table>"
 
 
+def flat_rows(d: dict, prefix: str = "") -> list[list[object]]:
+    """[key path, value] rows of a nested dict, depth first (``a / b / c``); lists of dicts are
+    indexed (``a / 0 / b``), other lists stay one value. Renders a section of any shape."""
+    rows: list[list[object]] = []
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            rows += flat_rows(v, f"{key} / ") if v else [[key, None]]
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            for i, x in enumerate(v):
+                rows += flat_rows(x, f"{key} / {i} / ")
+        else:
+            rows.append([key, v])
+    return rows
+
+
+def nested_tables(d: dict) -> str:
+    """One table of a dict's top-level scalars, then one titled table per nested part
+    (``flat_rows``): a metrics section whose shape the page does not know."""
+    scalars = [[k, v] for k, v in d.items() if not isinstance(v, dict) and not (
+        isinstance(v, list) and v and all(isinstance(x, dict) for x in v))]
+    out = [f'<div class="sec">{table(["metric", "value"], scalars)}</div>'] if scalars else []
+    for k, v in d.items():
+        if [k, v] in scalars:
+            continue
+        rows = flat_rows(v) if isinstance(v, dict) else flat_rows({str(i): x for i, x in enumerate(v)})
+        out.append(f'<div class="sec"><h3>{escape(k)}</h3>{table(["metric", "value"], rows)}</div>')
+    return f'<div class="grid">{"".join(out)}</div>'
+
+
 def figure(alt: str, mime: str, data: bytes, caption: str) -> str:
     b64 = base64.b64encode(data).decode("ascii")
     return (f'<figure><img alt="{escape(alt)}" src="data:{mime};base64,{b64}">'

@@ -14,6 +14,11 @@ video holds every rendered frame). Images are inlined as base64 (PNG; frames
 from the video as JPEG) and the CSS is inline: the page opens offline and can
 be mailed as one file.
 
+A cooperative run (a scenario with a ``cooperative:`` section) gets a section of its own: the
+key frame ``lookahead run --coop-video`` saved in ``cooperative/`` (the own / received / fused /
+matches panels and the global map, ``tools.sinks.cooperative_view``) and
+``metrics["cooperative"]`` as tables of whatever keys it holds.
+
 A suite page (a directory with ``summary.json``) has one row per scenario with
 its key metrics and a relative link to that run's own report (built too), and
 a totals row. Run directories without ``metrics.json`` are scored first.
@@ -52,6 +57,7 @@ from lookahead.tools.reports.html import (
     figure,
     fmt,
     img,
+    nested_tables,
     page,
     png_b64,
     pyplot,
@@ -63,6 +69,10 @@ from lookahead.tools.scoring import estimation as est
 from lookahead.tools.scoring.io import check_text, load_run, run_record, ticks_records
 from lookahead.tools.scoring.matching import class_iou, hungarian_match
 from lookahead.tools.scoring.run import score_run
+from lookahead.tools.sinks.cooperative_view import KEY_FRAME_JSON as COOP_KEY_FRAME
+from lookahead.tools.sinks.cooperative_view import MAP_PNG as COOP_MAP
+from lookahead.tools.sinks.cooperative_view import PANELS_PNG as COOP_PANELS
+from lookahead.tools.sinks.cooperative_view import SUBDIR as COOP_DIR
 from lookahead.tools.sinks.keyframes import KEY_FRAMES_INDEX, key_frame_reason
 from lookahead.tools.sinks.rundir import (
     METRICS_FILE,
@@ -419,6 +429,34 @@ def _key_frames(run_dir: Path, records: list[dict]) -> str:
     return f'<div class="frames">{"".join(figs)}</div>'
 
 
+def cooperative_section(run_dir: Path, metrics: dict) -> str:
+    """The cooperative perception part of a run page ("" for a run without one): the key frame's
+    two pictures (``cooperative/panels.png``, ``map.png`` from ``lookahead run --coop-video``,
+    ``tools.sinks.cooperative_view``) and ``metrics["cooperative"]`` as tables of whatever keys
+    it holds (``html.nested_tables``)."""
+    folder = run_dir / COOP_DIR
+    pngs = [(folder / name, alt) for name, alt in ((COOP_PANELS, "own / received / fused / matches"),
+                                                    (COOP_MAP, "global map")) if (folder / name).is_file()]
+    sec = metrics.get("cooperative")
+    if not pngs and not isinstance(sec, dict):
+        return ""
+    out = ["<h2>Cooperative perception</h2>"]
+    if pngs:
+        why = ""
+        try:
+            key = json.loads((folder / COOP_KEY_FRAME).read_text())
+            why = f"frame {key.get('frame')}, t {fmt(key.get('t'))} s: {key.get('why')}"
+        except (OSError, ValueError, AttributeError):
+            pass
+        out.append('<div class="grid">' + "".join(figure(p.name, "image/png", p.read_bytes(), f"{alt}; {why}")
+                                                  for p, alt in pngs) + "</div>")
+    else:
+        out.append('<p class="muted">no pictures (lookahead run --coop-video draws them)</p>')
+    if isinstance(sec, dict) and sec:
+        out.append(nested_tables(sec))
+    return "".join(out)
+
+
 def _timing_table(timing: dict) -> str:
     stages = [s for s in _STAGE_ORDER if s in timing] + sorted(set(timing) - set(_STAGE_ORDER))
     rows = [[s, timing[s].get("median"), timing[s].get("p95")] for s in stages]
@@ -496,7 +534,7 @@ def build_run_report(run: RunDir | Path) -> Path:
            f"config {run.get('config_hash', '—')}")
     order = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "aeb", "timing")
     sections = [k for k in order if isinstance(metrics.get(k), dict) and k != "timing"]
-    sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order]
+    sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order and k != "cooperative"]
     body = [
         f"<h1>{escape(name)}</h1>",
         f'<p class="sub">{escape(sc.get("description", ""))}</p><p class="sub">{escape(sub)}</p>',
@@ -512,6 +550,7 @@ def build_run_report(run: RunDir | Path) -> Path:
         _timing_table(metrics.get("timing") or {}),
         "</div>",
         "<h2>Key frames</h2>", _key_frames(run_dir, records),
+        cooperative_section(run_dir, metrics),
         "<h2>Metrics</h2>", '<div class="grid">', *[_section_tables(k, metrics[k]) for k in sections], "</div>",
     ]
     out = run_dir / REPORT_FILE

@@ -8,6 +8,11 @@ A metric the baseline file does not name (a file written before the metric exist
 is compared with ``ASSUMED_BASELINE``'s value when it has one, and is otherwise listed
 without a verdict: ``aeb.false_activations`` is assumed 0, so a baseline that predates
 AEB scoring still fails on the first false AEB activation.
+
+Metrics of an optional totals block (``OPTIONAL_SECTIONS``: ``cooperative``, present only
+when some run of the suite has other cameras) are left out of ``flatten`` -- and so of a
+baseline written with ``--update-baseline`` -- when the block is absent, so suites without
+them flatten and write exactly as before; they are gated only when the baseline has them.
 """
 
 from __future__ import annotations
@@ -35,7 +40,15 @@ TOLERANCES: dict[str, tuple[str, float]] = {
     "closed_loop.collisions": ("down", 0),
     "expectations.failed": ("down", 0),
     "aeb.false_activations": ("down", 0),
+    "cooperative.matching_precision": ("up", 0.02),
+    "cooperative.matching_recall": ("up", 0.02),
+    "cooperative.occluded_recall_fused": ("up", 0.02),
+    "cooperative.lead_time_median_s_fusion": ("up", 0.2),
+    "cooperative.missed_fusion": ("down", 0),
 }
+
+#: totals blocks that only some suites have: their metrics are not flattened when the block is absent.
+OPTIONAL_SECTIONS = frozenset({"cooperative"})
 
 #: metric path -> the value a baseline that lacks the metric is taken to have.
 ASSUMED_BASELINE: dict[str, float] = {"aeb.false_activations": 0}
@@ -46,6 +59,8 @@ def flatten(totals: dict) -> dict[str, float | None]:
     out: dict[str, float | None] = {}
     for path in TOLERANCES:
         section, key = path.split(".", 1)
+        if section in OPTIONAL_SECTIONS and not isinstance(totals.get(section), dict):
+            continue
         out[path] = (totals.get(section) or {}).get(key)
     return out
 
@@ -129,5 +144,6 @@ def load_baseline(path: Path) -> dict:
 
 
 def write_baseline(path: Path, suite: str, metrics: dict) -> None:
-    tol = {k: list(v) for k, v in TOLERANCES.items()}
+    tol = {k: list(v) for k, v in TOLERANCES.items()
+           if k.split(".", 1)[0] not in OPTIONAL_SECTIONS or k in metrics}
     Path(path).write_text(json.dumps({"suite": suite, "metrics": metrics, "tolerances": tol}, indent=2) + "\n")

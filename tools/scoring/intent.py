@@ -21,7 +21,11 @@ Definitions (documented constants):
 * False alarm: an alert >= HIGH whose object has no danger frame from
   ``FA_BEFORE_S`` = 0.5 s before to ``FA_AFTER_S`` = 1 s after the alert, or
   whose track is associated with no object.
-* A track's object: the ground-truth actor it is matched with most often.
+* A track's object: the ground-truth actor it is matched with most often. An object only
+  other cameras see (cooperative runs: a remote id, ``REMOTE_ID_BASE`` = 1_000_000 and up,
+  in the record's ``alerts``) has no box to match: its object is the ground-truth actor its
+  fused objects (``cooperative.fused``, truth >= 1) carry most often, and per frame the one
+  it carries then.
 * ``ttc_when_first_visible``: the object's true TTC at the first frame it was
   visible (``NEVER`` = 1e9 when not closing): a warning cannot come earlier than that.
 * AEB brake onset (``aeb`` section): a frame whose AEB brake is non-null after a
@@ -50,6 +54,7 @@ import numpy as np
 
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.labels import LABEL_NAMES, Label, Risk
+from lookahead.perception.cooperative import REMOTE_ID_BASE
 from lookahead.tools.scoring.matching import IOU_THRESHOLD, class_iou, hungarian_match
 from lookahead.tools.sinks.rundir import NEVER, RUN_FILE, RunDir, RunDirError, as_rundir, decode
 
@@ -84,6 +89,9 @@ class IntentRun:
     braking: list[bool] = field(default_factory=list)  # per frame: the AEB brake non-null (aeb_brake_of)
     aeb_on: bool | None = None  # run.json's scenario.ego.aeb is on (None: not recorded)
     latency_frames: int = 0  # run.json's scenario.perception.latency: alerts reach the driver this many frames late
+    cooperative: bool = False  # some record carries ``cooperative`` (other cameras' objects, fused)
+    remote_pairs: list[tuple[int, int, int]] = field(default_factory=list)  # frame, actor, remote id (fused truth)
+    alerts_alone: list[dict] = field(default_factory=list)  # cooperative.alerts_alone: the ego's own camera alone
 
 
 def load_intent_run(run: RunDir | Path) -> IntentRun:
@@ -119,7 +127,7 @@ def _deliver_alerts(out: IntentRun) -> None:
     if not lag:
         return
     dt = _frame_period(out)
-    for a in out.alerts:
+    for a in out.alerts + out.alerts_alone:
         f = a["perceived_frame"] = a["frame"]
         a["frame"] = f + lag
         a["t"] = out.t[f + lag] if f + lag < len(out.t) else out.t[f] + lag * dt
@@ -154,6 +162,14 @@ def _read_frame(out: IntentRun, f: int, rec: dict) -> None:
             for t, g in zip(t_idx.tolist(), g_idx.tolist(), strict=True):
                 out.pairs.append((f, int(gids[g]), int(tids[t]), int(labels[t])))
     out.alerts += [{**a, "frame": f} for a in rec.get("alerts") or []]
+    coop = rec.get("cooperative")
+    if coop is not None:
+        out.cooperative = True
+        fused = coop.get("fused") or {}
+        for fid, actor in zip(fused.get("id") or [], fused.get("truth") or [], strict=True):
+            if fid >= REMOTE_ID_BASE and actor > 0:
+                out.remote_pairs.append((f, int(actor), int(fid)))
+        out.alerts_alone += [{**a, "frame": f} for a in coop.get("alerts_alone") or []]
     out.collisions += rec.get("collisions") or []
     brake = aeb_brake_of(rec.get("ego") or {}, out.aeb_on)
     out.braking.append(brake is not None)
@@ -237,16 +253,26 @@ def _episodes(frames: list[int]) -> list[tuple[int, int]]:
 
 
 def track_actors(run: IntentRun) -> dict[int, int]:
+    """Each track's object (the actor it is matched with most often), and each remote id's
+    (the actor its fused objects carry most often; cooperative runs)."""
     votes: dict[int, Counter] = defaultdict(Counter)
     for _f, actor, track, _ in run.pairs:
         votes[track][actor] += 1
+    for _f, actor, remote in run.remote_pairs:
+        votes[remote][actor] += 1
     return {t: c.most_common(1)[0][0] for t, c in votes.items()}
 
 
-def evaluate_danger(run: IntentRun) -> dict:
+def evaluate_danger(run: IntentRun, alerts: list[dict] | None = None,
+                    visible: dict[int, set[int]] | None = None) -> dict:
+    """The ``danger`` section: of ``alerts`` (default the run's, as acted on; each raised one
+    gets its ``actor``, false alarms ``false_alarm``), with events counted where the actor is
+    in ``visible`` (actor -> frames; default the ego camera's ``gt_visible``)."""
     owner = track_actors(run)
     frame_actor = {(f, tr): a for f, a, tr, _ in run.pairs}
-    raised = [a for a in run.alerts if a.get("kind") in ("fcw", "critical")]
+    frame_actor.update({(f, r): a for f, a, r in run.remote_pairs})
+    seen_frames = run.gt_visible if visible is None else visible
+    raised = [a for a in (run.alerts if alerts is None else alerts) if a.get("kind") in ("fcw", "critical")]
     for a in raised:
         a["actor"] = frame_actor.get((a.get("perceived_frame", a["frame"]), a["track_id"]), owner.get(a["track_id"]))
     t = np.asarray(run.t)
@@ -254,10 +280,10 @@ def evaluate_danger(run: IntentRun) -> dict:
     danger_frames = {a: [f for f, lab in tl.items() if lab == Label.DANGER] for a, tl in run.gt_label.items()}
     for actor, frames in danger_frames.items():
         for start, end in _episodes(frames):
-            if not any(start <= f <= end for f in run.gt_visible[actor]):
+            if not any(start <= f <= end for f in seen_frames.get(actor, ())):
                 continue
             mine = [a for a in raised if a["actor"] == actor and t[start] - ALERT_LEAD_WINDOW_S <= a["t"] <= t[end]]
-            seen = [f for f in run.gt_visible[actor] if f <= end]
+            seen = [f for f in seen_frames.get(actor, ()) if f <= end]
             ttc_seen = run.gt_ttc[actor].get(min(seen), float("inf")) if seen else None
             ev = {"actor": run.names.get(actor, str(actor)), "t_start": rounded(t[start]), "t_end": rounded(t[end]),
                   "warned": bool(mine), "lead_time_s": None,

@@ -2,7 +2,8 @@
 
 ``score_run`` reads the run directory through ``tools.sinks.rundir.RunDir`` (each
 file parsed once), computes every section (these three, and ``intent``, ``danger``,
-``closed_loop``, ``expectations``, ``timing`` from ``tools.scoring.intent`` / ``timing``)
+``closed_loop``, ``expectations``, ``timing`` from ``tools.scoring.intent`` / ``timing``, and
+``cooperative`` from ``tools.scoring.cooperative`` for runs with other cameras)
 and merges them into ``metrics.json`` (other sections, and foreign keys inside these,
 are kept; the file is replaced atomically, and only after everything was computed).
 Suite and sweep totals are ``tools.scoring.totals``. ``score_command`` is the body of
@@ -26,6 +27,7 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from lookahead.tools.scoring.cooperative import cooperative_section
 from lookahead.tools.scoring.detection import evaluate_detection
 from lookahead.tools.scoring.estimation import evaluate_estimation
 from lookahead.tools.scoring.intent import intent_sections, load_intent_run
@@ -67,8 +69,12 @@ def compute_sections(run: RunDir | Path) -> dict[str, dict]:
     rd = as_rundir(run)
     if has_ground_truth(rd):
         sections = evaluate(load_run(rd))
-        sections.update(intent_sections(load_intent_run(rd)))
+        intent_run = load_intent_run(rd)
+        sections.update(intent_sections(intent_run))
         sections["occlusion"] = run_occlusion(rd)  # identity kept through occlusions
+        cooperative = cooperative_section(rd, intent_run)  # only runs with other cameras
+        if cooperative is not None:
+            sections["cooperative"] = cooperative
     else:  # real video: nothing to score against (``score --truth`` joins a simulated run's)
         load_run(rd)  # every record checked all the same
         sections = {"observed": observed_section(rd)}

@@ -6,7 +6,9 @@
   are sums and rates, AP, IDF1 and medians are recomputed over every frame;
   ``intent_totals`` pools intent, danger, closed loop, aeb (false AEB activations)
   and expectations from the runs' metrics; ``occlusion_totals`` (``tools.scoring.occlusion``)
-  sums the occlusion episode counts and recomputes ``kept_rate``.
+  sums the occlusion episode counts and recomputes ``kept_rate``; ``cooperative_totals``
+  (``tools.scoring.cooperative``) pools the cooperative matching, occluded-recall and
+  warning counts -- a ``cooperative`` block only when some run has that section.
 * ``sweep_totals`` -- a sweep's (``lookahead sweep``), from the variants' metrics
   alone (O(variants), no run re-read): detection and tracking counts summed with
   precision, recall and MOTA recomputed, estimation sample counts, ``intent_totals``
@@ -27,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from lookahead.intent.labels import LABEL_NAMES, Label
+from lookahead.tools.scoring.cooperative import cooperative_totals
 from lookahead.tools.scoring.intent import SCORED_LABELS, rounded
 from lookahead.tools.scoring.io import RunData, concat_runs, load_run
 from lookahead.tools.scoring.occlusion import occlusion_totals
@@ -66,7 +69,16 @@ def suite_totals(runs: Sequence[RunFrames | RunDir | Path], per_run: Sequence[di
     totals = score_suite(runs)
     totals.update(intent_totals(per_run))
     totals["occlusion"] = occlusion_totals(per_run)  # counts summed, kept_rate recomputed
+    _add_cooperative(totals, per_run)
     return totals
+
+
+def _add_cooperative(totals: dict, per_run: Sequence[dict]) -> None:
+    """``totals["cooperative"]`` when some run has a ``cooperative`` section (else nothing, so
+    totals of runs without other cameras are as before)."""
+    coop = cooperative_totals(per_run)
+    if coop is not None:
+        totals["cooperative"] = coop
 
 
 def intent_totals(per_run: Sequence[dict]) -> dict:
@@ -174,5 +186,6 @@ def sweep_totals(per_run: Sequence[dict], mean_of: Sequence[str] = ()) -> dict:
            "tracking": {"mota": trk.pop("mota"), **trk}, "estimation": est}
     out.update(intent_totals(per_run))
     out["occlusion"] = occlusion_totals(per_run)
+    _add_cooperative(out, per_run)
     out["mean_over_variants"] = means
     return out

@@ -16,6 +16,15 @@ frame index). Entities, all in the ego frame (ISO 8855: x forward, y left, z up)
   (one call per series instead of one per value: the cheap path).
 * ``alerts`` -- one text-log entry per alert event (CRITICAL / WARN / INFO);
   ``events`` -- collisions and the run summary.
+* Cooperative runs (a record with ``cooperative``, ``sim.cooperation.cooperative_record``):
+  ``ego/coop/fused`` -- the fused objects (points at 0.5 m, labels ``#track`` / ``rN`` for
+  remote ids) coloured by source (own blue, other-only orange, both green; as
+  ``tools.sinks.cooperative_view``) and ``ego/coop/fused_cov`` their 2-sigma position
+  covariance as flat ellipsoids; ``ego/coop/received/<sender>`` -- each message's objects in
+  the ego frame in the sender's colour (the ones fusion dropped as the ego itself grey,
+  labelled ``self``); ``ego/coop/senders/<sender>`` -- the sender's pose as it reported it, in
+  the ego frame, as a transform with a 5 m arrow along its heading (x) and its name; a
+  rendered sender's camera (pinhole) and image under it, ``.../camera/image``.
 
 Memory stays flat in run length: the ``.rrd`` is written without rerun's footer
 (``write_footer=False``; rerun keeps every chunk's manifest entry in memory until the
@@ -48,6 +57,7 @@ from lookahead.intent.labels import LABEL_NAMES, RISK_COLOURS, Label, Risk
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.detections import CLASSES
 from lookahead.sim.records import TickRecord
+from lookahead.tools.sinks import cooperative_view as cv
 from lookahead.tools.sinks.draw import CLASS_COLOURS
 from lookahead.tools.sinks.rundir import OutputError
 
@@ -149,6 +159,7 @@ class RerunSink:
             except (OSError, RuntimeError) as e:
                 raise OutputError(f"{self.path}: cannot write the Rerun recording ({e})") from None
         self._camera_logged = False
+        self._sender_cameras: set[str] = set()  # rendered senders whose camera is logged
         self.frames = 0
         self.series_every = max(1, int(series_every))
         self._series: dict[str, tuple[list[float], list[int], list[float]]] = {}
@@ -189,6 +200,8 @@ class RerunSink:
         self._log_ground_truth(record)
         self._log_detections(record)
         self._log_tracks(record)
+        if getattr(record, "cooperative", None) is not None:
+            self._log_cooperative(record)
         ego = record.ego
         self._scalar("plots/ego/speed", float(ego.get("speed", np.nan)))
         self._scalar("plots/ego/brake", float(ego.get("brake") or 0.0))
@@ -294,3 +307,52 @@ class RerunSink:
                 self._scalar(f"plots/range/track_{i}", r)
             if np.isfinite(t) and t <= TTC_PLOT_MAX:
                 self._scalar(f"plots/ttc/track_{i}", t)
+
+    def _log_cooperative(self, record: TickRecord) -> None:
+        f = cv.CoopFrame.of(record)
+        rec = self.rec
+        colours = cv.sender_colours(f)
+        fu = f.fused()
+        n = len(fu["id"])
+        pos = np.column_stack([fu["xy"], np.full(n, 0.5)])
+        src_rgb = np.array([cv.SOURCE_COLOURS.get(int(k), (255, 255, 255)) for k in fu["source"].tolist()],
+                           np.uint8).reshape(-1, 3)
+        labels = [f"{cv.id_label(i)} {cv.SOURCE_NAMES.get(int(k), '?')}"
+                  for i, k in zip(fu["id"].tolist(), fu["source"].tolist(), strict=True)]
+        rec.log("ego/coop/fused", rr.Points3D(pos, colors=src_rgb, radii=0.45, labels=labels))
+        ok = np.all(np.isfinite(fu["cov"]), axis=1)
+        half, quat = [], []
+        for c in fu["cov"][ok]:
+            vals, vecs = np.linalg.eigh(np.array([[c[0], c[1]], [c[1], c[2]]]))
+            half.append((*(2.0 * np.sqrt(np.clip(vals, 0.0, None))), 0.05))
+            yaw = float(np.arctan2(vecs[1, 0], vecs[0, 0]))  # the first axis' direction
+            quat.append((0.0, 0.0, np.sin(yaw / 2), np.cos(yaw / 2)))
+        rec.log("ego/coop/fused_cov", rr.Ellipsoids3D(centers=pos[ok], half_sizes=np.reshape(half, (-1, 3)),
+                                                      quaternions=np.reshape(quat, (-1, 4)), colors=src_rgb[ok]))
+        for m in f.received():
+            k = len(m["id"])
+            drop = m["fused_id"] < 0
+            rgb = np.where(drop[:, None], np.array(cv.SELF_DROP, np.uint8), np.array(colours[m["sender"]], np.uint8))
+            lab = ["self" if d else f"{m['sender']} {i}" for i, d in zip(m["id"].tolist(), drop.tolist(), strict=True)]
+            rec.log(f"ego/coop/received/{rr.escape_entity_path_part(m['sender'])}",
+                    rr.Points3D(np.column_stack([m["xy"], np.full(k, 0.3)]), colors=rgb.reshape(-1, 3), radii=0.3,
+                                labels=lab))
+        for s in f.senders():
+            pose = s["reported_pose"]
+            x, y = cv.to_frame(np.array(pose[:2])[None], f.ego_pose)[0]
+            path = f"ego/coop/senders/{rr.escape_entity_path_part(s['name'])}"
+            rec.log(path, rr.Transform3D(translation=(float(x), float(y), 0.0),
+                                         rotation=rr.RotationAxisAngle(axis=(0.0, 0.0, 1.0),
+                                                                       radians=float(pose[2] - f.ego_pose[2]))))
+            rec.log(path, rr.Arrows3D(origins=[(0.0, 0.0, 1.0)], vectors=[(5.0, 0.0, 0.0)],
+                                      colors=[colours[s["name"]]], labels=[s["name"]], radii=0.15))
+            frame = getattr(record, "sender_frames", {}).get(s["name"])
+            if frame is not None and frame.image is not None:  # a rendered sender: its camera and image
+                cam = frame.camera
+                if s["name"] not in self._sender_cameras:
+                    self._sender_cameras.add(s["name"])
+                    rec.log(f"{path}/camera", rr.Transform3D(translation=cam.mount, mat3x3=cam.R_cam_from_ego.T),
+                            static=True)
+                    rec.log(f"{path}/camera", rr.Pinhole(image_from_camera=cam.K, resolution=[cam.width, cam.height],
+                                                         camera_xyz=rr.ViewCoordinates.RDF), static=True)
+                rec.log(f"{path}/camera/image", self._image(frame.image))

@@ -125,3 +125,15 @@ def test_no_footer_by_default_and_one_on_request(recorded, tmp_path):
             with pytest.raises(RuntimeError, match="without footer"):
                 reader.store()
         assert load(path)[0]["/ego/camera/image"] == 3
+
+
+def test_a_cooperative_run_records_every_camera_and_the_fused_objects(tmp_path):
+    sc = with_detector(load_scenario(ROOT / "scenarios" / "coop_child_parked_cars.yaml"), "gt")
+    path = tmp_path / "coop.rrd"
+    sink = RerunSink(path)
+    Runner(sc.model_copy(update={"duration": 0.6}), sinks=[sink], render=True).run()
+    rows, static, _ = load(path)
+    assert rows["/ego/camera/image"] == 6
+    assert rows["/ego/coop/senders/oncoming/camera/image"] == 6  # the oncoming car's own rendered frames
+    assert "/ego/coop/senders/oncoming/camera" in static  # its pinhole
+    assert rows["/ego/coop/fused"] == 6 and rows["/ego/coop/received/oncoming"] >= 4  # messages arrive 50-70 ms late
