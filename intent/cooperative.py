@@ -97,7 +97,7 @@ class FusionStage:
         p = self.priors
         return objects_from_estimates(tracks.track_id, tracks.class_id, tracks.score, est,
                                       p.of(tracks.class_id, "length"), p.of(tracks.class_id, "width"),
-                                      p.of(tracks.class_id, "length_sigma"))
+                                      p.of(tracks.class_id, "length_sigma"), tracks.xyxy)
 
     def __call__(self, frame: Frame, tracks: Tracks, est: Estimates,
                  kin: Kinematics) -> tuple[Kinematics, np.ndarray, np.ndarray]:

@@ -60,7 +60,10 @@ class ObjectList:
     source: (N,) int, ``SOURCES``; velocity_sigma: (N, 2) std of each velocity component (m/s,
     ``UNKNOWN_VELOCITY_SIGMA`` when unknown); settled: (N,) 1 once the source's velocity estimate
     has converged (``perception.estimator``), else 0; truth: (N,) the ground-truth actor the
-    simulator associates with the object, -1 none -- for scoring only: fusion never reads it.
+    simulator associates with the object, -1 none -- for scoring only: fusion never reads it;
+    xyxy: (N, 4) the object's box in its source camera's image (px; NaN where it has none in
+    this frame's camera: objects from others); size: (N, 3) length, width, height (m, NaN
+    unknown) -- the design's 2D and 3D boxes.
     """
 
     xy: np.ndarray
@@ -73,9 +76,11 @@ class ObjectList:
     velocity_sigma: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     settled: np.ndarray = field(default_factory=lambda: np.zeros(0))
     truth: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    xyxy: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    size: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     FIELDS = ("xy", "velocity", "cov", "class_id", "score", "object_id", "source", "velocity_sigma", "settled",
-              "truth")
+              "truth", "xyxy", "size")
 
     def __post_init__(self) -> None:
         n = len(self.xy)
@@ -87,6 +92,10 @@ class ObjectList:
             self.settled = np.ones(n)
         if len(self.truth) != n:
             self.truth = np.full(n, -1, dtype=np.int64)
+        if len(self.xyxy) != n:
+            self.xyxy = np.full((n, 4), np.nan)
+        if len(self.size) != n:
+            self.size = np.full((n, 3), np.nan)
 
     @classmethod
     def empty(cls) -> ObjectList:
@@ -155,12 +164,13 @@ def half_width_seen(velocity: np.ndarray, length: np.ndarray, width: np.ndarray)
 
 def objects_from_estimates(
     track_id: np.ndarray, class_id: np.ndarray, score: np.ndarray, est, length: np.ndarray,
-    width: np.ndarray, length_sigma: np.ndarray,
+    width: np.ndarray, length_sigma: np.ndarray, xyxy: np.ndarray | None = None,
 ) -> ObjectList:
     """One camera's tracks as an ``ObjectList`` in its ego frame (rows with a finite range).
 
     ``est`` is the tracks' ``perception.estimator.Estimates`` (range of the nearest face,
-    lateral of the centre, ground velocity and their stds). The centre lies beyond the nearest
+    lateral of the centre, ground velocity and their stds, half width, height); ``xyxy`` their
+    boxes in the camera's image (px); size = (prior ``length``, estimated width and height). The centre lies beyond the nearest
     face by ``centre_offset`` (class prior ``length`` x ``width``, m, and ``length_sigma``);
     its covariance is the estimator's (range_sigma along x, lateral_sigma along y) plus the
     offset's uncertainty, or ``range_covariance`` where
@@ -187,8 +197,11 @@ def objects_from_estimates(
     # class's true size scale the whole range; along the line of sight
     cov[~model] += range_covariance(xy[~model], sigma0=0.0, range_rel=SYSTEMATIC_RANGE_REL, bearing_sigma=0.0)
     settled = np.nan_to_num(np.asarray(est.settled, dtype=np.float64), nan=0.0)
+    size = np.column_stack([length, 2.0 * np.asarray(est.half_width, dtype=np.float64),
+                            np.asarray(est.height, dtype=np.float64)])
+    boxes = np.full((len(rng), 4), np.nan) if xyxy is None else np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
     out = ObjectList(xy, vel, cov, np.asarray(class_id, dtype=np.int64), np.asarray(score, dtype=np.float64),
-                     np.asarray(track_id, dtype=np.int64), velocity_sigma=vsig, settled=settled)
+                     np.asarray(track_id, dtype=np.int64), velocity_sigma=vsig, settled=settled, xyxy=boxes, size=size)
     return out[keep]
 
 
@@ -213,7 +226,8 @@ def to_frame(msg: SharedObjects, pose: tuple[float, float, float], t: float,
     ``(accel_sigma * age^2 / 2)^2 + (velocity_sigma * age)^2`` per axis (an unknown
     acceleration of ``accel_sigma`` m/s^2 and the velocity's own error over the age) plus the
     sender's pose error (``msg.pose_sigma``: position, and heading times the object's
-    distance from the sender, across its line of sight). ``source`` becomes ``other``."""
+    distance from the sender, across its line of sight). ``source`` becomes ``other``; sizes
+    are kept, image boxes dropped (they are the sender's image's)."""
     o = msg.objects
     age = float(t) - float(msg.t)
     r_sender, r_ego = rotation_2d(msg.pose[2]), rotation_2d(pose[2])
@@ -230,7 +244,8 @@ def to_frame(msg: SharedObjects, pose: tuple[float, float, float], t: float,
         cov = cov + sig_yaw**2 * a[:, :, None] * a[:, None, :]
     vel_sig = np.abs(o.velocity_sigma @ np.abs(r).T)  # a conservative bound of the rotated stds
     return ObjectList(xy, velocity, cov, o.class_id.copy(), o.score.copy(), o.object_id.copy(),
-                      np.ones(len(o), dtype=np.int64), vel_sig, o.settled.copy(), o.truth.copy())
+                      np.ones(len(o), dtype=np.int64), vel_sig, o.settled.copy(), o.truth.copy(),
+                      np.full((len(o), 4), np.nan), o.size.copy())
 
 
 _GROUP_NAMES = sorted(set(CLASS_GROUP.values()))
@@ -271,9 +286,10 @@ def match(own: ObjectList, other: ObjectList, gate: float = GATE_CHI2) -> tuple[
 
 def fuse(own: ObjectList, other: ObjectList, pairs: tuple[np.ndarray, np.ndarray]) -> ObjectList:
     """Matched pairs fused in information form (position: P = (P1^-1 + P2^-1)^-1,
-    x = P (P1^-1 x1 + P2^-1 x2); velocity per component by its own variances; score
-    1 - (1 - s1)(1 - s2); settled if either is; ``own``'s id, class and truth, or ``other``'s
-    truth where ``own``'s is unknown), marked ``both`` (``other`` where the ``own`` side was
+    x = P (P1^-1 x1 + P2^-1 x2); velocity per component by its own variances; size by score
+    (the design's confidence weights); score 1 - (1 - s1)(1 - s2); settled if either is;
+    ``own``'s id, class, image box and truth, or ``other``'s truth where ``own``'s is
+    unknown), marked ``both`` (``other`` where the ``own`` side was
     itself only others'); then the unmatched ``own`` rows (their marks kept) and ``other``
     rows (``other``), unchanged. Rows: pairs in ``pairs`` order, then the rest of each list
     in order (``fused_rows``)."""
@@ -287,8 +303,11 @@ def fuse(own: ObjectList, other: ObjectList, pairs: tuple[np.ndarray, np.ndarray
     score = 1.0 - (1.0 - own.score[i]) * (1.0 - other.score[j])
     source = np.where(own.source[i] == 1, 1, 2)
     truth = np.where(own.truth[i] >= 0, own.truth[i], other.truth[j])
+    sa, sb = own.score[i][:, None] * np.isfinite(own.size[i]), other.score[j][:, None] * np.isfinite(other.size[j])
+    with np.errstate(invalid="ignore"):  # neither size known: NaN
+        size = (sa * np.nan_to_num(own.size[i]) + sb * np.nan_to_num(other.size[j])) / (sa + sb)
     both = ObjectList(xy, vel, cov, own.class_id[i], score, own.object_id[i], source, 1.0 / np.sqrt(va + vb),
-                      np.maximum(own.settled[i], other.settled[j]), truth)
+                      np.maximum(own.settled[i], other.settled[j]), truth, own.xyxy[i], size)
     rest_own, rest_other = fused_rows(len(own), len(other), pairs)[2:]
     only_other = other[rest_other]
     only_other.source = np.ones(len(only_other), dtype=np.int64)

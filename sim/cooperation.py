@@ -120,7 +120,7 @@ class Sender:
         p = self.stack.estimator.priors
         objects = objects_from_estimates(tracks.track_id, tracks.class_id, tracks.score, est,
                                          p.of(tracks.class_id, "length"), p.of(tracks.class_id, "width"),
-                                         p.of(tracks.class_id, "length_sigma"))
+                                         p.of(tracks.class_id, "length_sigma"), tracks.xyxy)
         truth = truth_ids(tracks.xyxy, gt, self.camera)
         keep = np.isfinite(est.range) & np.isfinite(est.lateral)
         objects.truth = truth[keep]
@@ -173,8 +173,8 @@ class Cooperation:
 
 
 def _objects_dict(o: ObjectList) -> dict:
-    return {"id": o.object_id, "truth": o.truth, "class_id": o.class_id, "xy": np.round(o.xy, 3),
-            "velocity": np.round(o.velocity, 3)}
+    return {"id": o.object_id, "truth": o.truth, "class_id": o.class_id, "score": np.round(o.score, 3),
+            "xy": np.round(o.xy, 3), "velocity": np.round(o.velocity, 3), "size": np.round(o.size, 3)}
 
 
 def cooperative_record(views: list[SenderView], stage: FusionStage, own_truth: np.ndarray,
@@ -182,7 +182,9 @@ def cooperative_record(views: list[SenderView], stage: FusionStage, own_truth: n
     """The tick record's ``cooperative`` entry (plain types; ``truth`` fields for scoring only):
 
     * ``fusion``: whether intent saw the fused objects;
-    * ``senders``: per sender, its true and reported pose (world) and what it sent, in its frame;
+    * ``senders``: per sender, what it sent (the design's ``DetectionsWithOdom``): capture time,
+      its true and reported pose (world) and its objects in its frame (id, class, score,
+      centre, ground velocity, size: length, width, height; image box, px);
     * ``received``: per message fused, its sender, capture time, age (s) and per object its id,
       truth, position in the ego frame (``to_frame``), the fused object it became or joined
       (-1: dropped as the ego itself), whether it ``matched`` an object already listed and that
@@ -206,8 +208,9 @@ def cooperative_record(views: list[SenderView], stage: FusionStage, own_truth: n
     remote = stage.remote
     return {
         "fusion": stage.enabled,
-        "senders": [{"name": v.name, "pose": np.round(v.viewpoint.pose, 4), "reported_pose": np.round(v.reported_pose, 4),
-                     "objects": _objects_dict(v.objects)} for v in views],
+        "senders": [{"name": v.name, "t": round(v.frame.t, 4), "pose": np.round(v.viewpoint.pose, 4),
+                     "reported_pose": np.round(v.reported_pose, 4),
+                     "objects": {**_objects_dict(v.objects), "xyxy": np.round(v.objects.xyxy, 2)}} for v in views],
         "received": [{"sender": m.sender, "t": round(m.t, 4), "age": round(m.age, 4), "id": m.object_id,
                       "truth": m.truth, "xy": np.round(m.xy, 3), "fused_id": m.fused_id, "matched": m.matched,
                       "matched_source": m.matched_source} for m in r.senders],

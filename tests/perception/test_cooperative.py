@@ -164,3 +164,17 @@ def test_estimates_become_centres_with_a_systematic_range_error():
     est.range[1] = np.nan
     assert objects_from_estimates(np.array([4, 5]), np.array([4, 4]), np.array([0.9, 0.8]), est, np.array([4.5, 4.5]),
                                   np.array([1.8, 1.8]), np.array([0.3, 0.3])).object_id.tolist() == [4]
+
+
+def test_sizes_fuse_by_confidence_and_image_boxes_stay_with_their_camera():
+    a = objects([[20.0, 0.0]], [[0.0, 0.0]], class_id=[CLASS_ID["car"]])
+    a.size, a.score, a.xyxy = np.array([[4.0, 1.8, 1.5]]), np.array([0.9]), np.array([[300.0, 170.0, 340.0, 200.0]])
+    b = objects([[20.3, 0.1]], [[0.0, 0.0]], class_id=[CLASS_ID["car"]])
+    b.size, b.score = np.array([[5.0, 1.8, np.nan]]), np.array([0.3])
+    b.xyxy = np.array([[10.0, 10.0, 20.0, 20.0]])  # in the sender's image
+    moved = to_frame(SharedObjects("s", 0.0, (0.0, 0.0, 0.0), b), (0.0, 0.0, 0.0), 0.0)
+    assert np.isnan(moved.xyxy).all()
+    np.testing.assert_array_equal(moved.size, b.size)
+    fused = fuse(a, moved, match(a, moved))
+    np.testing.assert_allclose(fused.size[0], [(0.9 * 4.0 + 0.3 * 5.0) / 1.2, 1.8, 1.5])  # the unknown height: a's
+    assert fused.xyxy[0].tolist() == a.xyxy[0].tolist()
