@@ -60,6 +60,7 @@ class TickRecord:
     timings: dict[str, float] = field(default_factory=dict)
     cooperative: dict | None = None  # other cameras' objects and their fusion (``sim.cooperation``); None: none
     sender_frames: dict[str, Frame] = field(default_factory=dict)  # other cameras' frames by sender (images if rendered)
+    cipv: dict | None = None  # the primary target: ``{track_id, range, truth_actor, truth_range}`` (``sim.runner``)
 
     def to_dict(self) -> dict:
         d = {
@@ -76,6 +77,8 @@ class TickRecord:
             "alerts": [a.to_dict() if hasattr(a, "to_dict") else a for a in self.alerts],
             "collisions": [c.to_dict() for c in self.collisions],
         }
+        if self.cipv is not None:  # the closed loop's records (``sim.runner.cipv_record``); real video has none
+            d["cipv"] = self.cipv
         if self.cooperative is not None:  # only with other cameras: other runs record exactly as before
             d["cooperative"] = self.cooperative
         return jsonable(d)

@@ -315,6 +315,7 @@ class Runner:
             ground_truth=p.gt, detections=p.detections, tracks=p.tracks, estimates=p.est,
             assessments=p.assessment, alerts=p.alerts, collisions=snap.collisions, timings=timings,
             cooperative=p.cooperative, sender_frames={v.name: v.frame for v in snap.views},
+            cipv=cipv_record(p.tracks, p.est, p.assessment, p.gt),
         )
         t0 = time.perf_counter()
         for s in self.sinks:

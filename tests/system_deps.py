@@ -65,3 +65,14 @@ def require_system_python(args: list[str], what: str, timeout: float = 30.0) -> 
             said = " ".join((done.stderr or done.stdout).strip().splitlines()[-1:])
             _missing(f"{what}: {said}" if said else what)
     return SYSTEM_PYTHON
+
+
+def require_cjk_font() -> tuple[str, int]:
+    """(file, face index) of an installed font with Chinese glyphs (Debian fonts-wqy-microhei),
+    else skip (or fail under make test)."""
+    from lookahead.tools.sinks.video import find_cjk_font
+
+    found = find_cjk_font()
+    if found is None:
+        _missing("a font with Chinese glyphs (Debian fonts-wqy-microhei)")
+    return found  # type: ignore[return-value]

@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 import pytest
 from support.video import read_frames
+from system_deps import require_cjk_font
 
 from lookahead.intent.alerts import Alert
 from lookahead.intent.labels import Risk, risk_colour
@@ -108,8 +109,8 @@ def test_zh_without_a_cjk_font_warns_once_and_falls_back(monkeypatch, tmp_path, 
     assert len(msgs) == 1 and "fonts-noto-cjk" in msgs[0] and "falling back to English" in msgs[0]
 
 
-@pytest.mark.skipif(find_cjk_font() is None, reason="no CJK font installed")
 def test_zh_draws_chinese_labels(rendered, tmp_path):
+    require_cjk_font()  # setup/system.sh installs one (fonts-wqy-microhei)
     _, _, _, records, _ = rendered
     r = next(r for r in records if len(r.tracks.track_id))
     zh = VideoSink(tmp_path / "zh.mp4", fps=10, lang="zh")
