@@ -55,7 +55,10 @@ computed from a guessed ego speed:
   relative TTC (``critical_rate_sigmas`` range-rate stds slower); alerts follow
   that risk (an FCW from range and closing speed, like a camera-only FCW's);
 * behaviours describe motion over the ground (standing, stopped, wrong-way ...):
-  ``Behaviour.UNKNOWN``.
+  ``Behaviour.UNKNOWN`` (behaviour confidence 0).
+
+Behaviour confidence (``behaviour_confidence``): Phi of the behaviour decision's margin in stds
+(1 for ground truth, whose kinematics are exact).
 """
 
 from __future__ import annotations
@@ -64,6 +67,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
+from scipy.special import ndtr
 
 from lookahead.intent.collision import enhanced_ttc, required_decel
 from lookahead.intent.config import IntentConfig
@@ -230,7 +234,8 @@ class Kinematics:
 class Assessment:
     """Per-object outputs of ``assess`` (all (N,) arrays): constant-velocity ``ttc`` (s),
     ``ettc`` (enhanced, s), ``decel_req`` (the ego's required deceleration, m/s^2),
-    ``in_path``, ``risk``, ``label``, ``behaviour``."""
+    ``in_path``, ``risk``, ``label``, ``behaviour``, ``behaviour_confidence`` (in [0, 1],
+    ``behaviour_confidence``)."""
 
     ttc: np.ndarray
     in_path: np.ndarray
@@ -239,6 +244,7 @@ class Assessment:
     behaviour: np.ndarray
     ettc: np.ndarray | None = None
     decel_req: np.ndarray | None = None
+    behaviour_confidence: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.ttc)
@@ -252,6 +258,8 @@ class Assessment:
             "behaviour": self.behaviour.tolist(),
             **{name: np.round(np.minimum(getattr(self, name), NEVER), 3).tolist()
                for name in ("ettc", "decel_req") if getattr(self, name) is not None},
+            **({"behaviour_confidence": np.round(self.behaviour_confidence, 3).tolist()}
+               if self.behaviour_confidence is not None else {}),
         }
 
 
@@ -343,6 +351,116 @@ def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = No
     return np.where(wheeled, wb, out).astype(np.int64)
 
 
+class _Test:
+    """A boolean test per object and its margin ``z``: how many stds its deciding quantity is from
+    the threshold (inf: exact, or no std known; 0: on it, or its std unknown)."""
+
+    def __init__(self, val: np.ndarray, z: np.ndarray) -> None:
+        self.val, self.z = np.asarray(val, dtype=bool), np.asarray(z, dtype=np.float64)
+
+    @classmethod
+    def compare(cls, val: np.ndarray, q: np.ndarray, threshold, sigma) -> _Test:
+        """``val`` (the test as ``behaviours`` takes it), decided by quantity ``q`` against
+        ``threshold`` with std ``sigma`` (None: exact; NaN: unknown, margin 0)."""
+        d = np.abs(np.asarray(q, dtype=np.float64) - threshold)
+        if sigma is None:
+            return cls(val, np.full(d.shape, np.inf))
+        sig = np.nan_to_num(np.broadcast_to(np.asarray(sigma, dtype=np.float64), d.shape), nan=np.inf)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.where(sig > 0, d / np.where(sig > 0, sig, 1.0), np.inf)
+        return cls(val, np.where(np.isfinite(sig), z, 0.0))
+
+    def __and__(self, o: _Test) -> _Test:  # true: either flips it; false: every false part must flip
+        both = self.val & o.val
+        z_false = np.maximum(np.where(self.val, 0.0, self.z), np.where(o.val, 0.0, o.z))
+        return _Test(both, np.where(both, np.minimum(self.z, o.z), z_false))
+
+    def __or__(self, o: _Test) -> _Test:
+        return ~(~self & ~o)
+
+    def __invert__(self) -> _Test:
+        return _Test(~self.val, self.z)
+
+
+def _speed_sigma(vx: np.ndarray, vy: np.ndarray, k: Kinematics) -> np.ndarray | None:
+    """Std of the ground speed hypot(vx, vy) from the component stds (first order; at rest the
+    larger component std); None for ground truth."""
+    if k.ground_vx_sigma is None or k.ground_vy_sigma is None:
+        return None
+    sx, sy = (np.asarray(s, dtype=np.float64) for s in (k.ground_vx_sigma, k.ground_vy_sigma))
+    speed = np.hypot(vx, vy)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lin = np.sqrt((vx * sx) ** 2 + (vy * sy) ** 2) / speed
+    return np.where(speed > 0, lin, np.maximum(sx, sy))
+
+
+def behaviour_confidence(k: Kinematics, config: IntentConfig, thresholds: dict | None = None) -> np.ndarray:
+    """How sure each object's behaviour (``behaviours``) is, in [0, 1]: Phi(z), the standard
+    normal CDF of the margin z of its decision -- the probability, under Gaussian estimation
+    errors, that the nearest decision boundary lies on the estimated side.
+
+    The behaviour is the first true test of its class group's priority chain (wheeled: sudden
+    brake > sudden turn > wrong way > crossing > stopped > speeding > moving; pedestrians:
+    crossing > standing > running > walking; animals: entering road > stationary > running >
+    moving); its margin is the smallest margin of the tests that decided it (every test before
+    it in the chain, found false, and its own). A test's margin is |quantity - threshold| / std:
+    speed over ground (std from the ground-velocity stds) against the still / fast / 1 and 2 m/s
+    thresholds, the lateral ground speed against the crossing speed, |v_y| - |v_x| / 2, the
+    longitudinal speed against the wrong-way speed, -v_x - |v_y|, the lateral offset against the
+    corridor's half-width (``lateral_sigma``), and the signs of y and v_y (toward the corridor).
+    An AND that holds has its parts' smallest margin, one that fails the largest of its failing
+    parts' (all must flip); OR likewise. Acceleration and yaw rate carry no std: their tests
+    count as exact. Ground truth (no stds): 1 everywhere; an unknown std (NaN): margin 0, 0.5.
+    Velocities are the significant ones (``motion_significance``), as ``behaviours`` uses them."""
+    th = thresholds or _threshold_table(config)
+    n = len(k)
+    g = class_groups(k, config)
+    vx, vy = k.significant_ground_velocity(config.motion_significance)
+    sx = None if k.ground_vx_sigma is None else np.asarray(k.ground_vx_sigma, dtype=np.float64)
+    sy = None if k.ground_vy_sigma is None else np.asarray(k.ground_vy_sigma, dtype=np.float64)
+    sl = None if k.lateral_sigma is None else np.asarray(k.lateral_sigma, dtype=np.float64)
+    speed, s_speed = np.hypot(vx, vy), _speed_sigma(vx, vy, k)
+    still, fast, cross_v = th["still"][g], th["fast"][g], th["cross"][g]
+    half = config.ego_half_width + config.corridor_margin + np.asarray(k.half_width, dtype=np.float64)
+    y = np.asarray(k.lateral, dtype=np.float64)
+    avx, avy = np.abs(vx), np.abs(vy)
+    s_ratio = None if sx is None or sy is None else np.hypot(sy, 0.5 * sx)
+    s_diag = None if sx is None or sy is None else np.hypot(sx, sy)
+    lateral_motion = (_Test.compare(avy > cross_v, avy, cross_v, sy)
+                      & _Test.compare(avy >= 0.5 * avx, avy - 0.5 * avx, 0.0, s_ratio))
+    toward = _Test.compare(y * vy < 0, 0.0, 0.0, None)
+    toward.z = np.minimum(_Test.compare(toward.val, y, 0.0, sl).z, _Test.compare(toward.val, vy, 0.0, sy).z)
+    inside = _Test.compare(np.abs(y) < half, np.abs(y), half, sl)
+    moving = _Test.compare(speed >= still, speed, still, s_speed)
+    crossing = moving & lateral_motion & (toward | inside)
+    accel = np.nan_to_num(np.asarray(k.accel, dtype=np.float64), nan=0.0)
+    yaw = np.nan_to_num(np.asarray(k.yaw_rate, dtype=np.float64), nan=0.0)
+    brake = _Test.compare(accel < -th["brake"][g], accel, -th["brake"][g], None) & _Test.compare(speed > 1.0, speed, 1.0, s_speed)
+    turn = _Test.compare(np.abs(yaw) > th["turn"][g], yaw, th["turn"][g], None) & _Test.compare(speed > 2.0, speed, 2.0, s_speed)
+    wrong = (_Test.compare(vx < -th["wrong"][g], vx, -th["wrong"][g], sx)
+             & _Test.compare(-vx > avy, -vx - avy, 0.0, s_diag))
+    ped_fast = _Test.compare(speed >= fast, speed, fast, s_speed)
+    speeding = _Test.compare(speed > fast, speed, fast, s_speed)
+    always = _Test(np.ones(n, dtype=bool), np.full(n, np.inf))
+
+    ped = g == GROUPS.index("pedestrian")
+    ani = (g == GROUPS.index("animal")) | (g == GROUPS.index("large_animal"))
+    chains = (
+        (ped, (crossing, ~moving, ped_fast, always)),
+        (ani, (crossing, ~moving, ped_fast, always)),
+        (~(ped | ani), (brake, turn, wrong, crossing, ~moving, speeding, always)),
+    )
+    z = np.full(n, np.inf)
+    for rows, chain in chains:
+        decided, margin = np.zeros(n, dtype=bool), np.full(n, np.inf)
+        for test in chain:
+            open_ = ~decided
+            margin = np.where(open_, np.minimum(margin, test.z), margin)
+            decided |= test.val
+        z = np.where(rows, margin, z)
+    return ndtr(z)
+
+
 def _slower(v_o: np.ndarray, k: Kinematics, z: float) -> np.ndarray:
     """The object's ground speed along x raised by ``z`` range-rate stds: the ego closing that
     much more slowly than estimated (an unknown std: as if never closing)."""
@@ -393,7 +511,8 @@ def assess(
     n = len(k)
     if n == 0:
         z = np.zeros(0, dtype=np.int64)
-        return Assessment(np.zeros(0), np.zeros(0, dtype=bool), z, z.copy(), z.copy(), np.zeros(0), np.zeros(0))
+        return Assessment(np.zeros(0), np.zeros(0, dtype=bool), z, z.copy(), z.copy(), np.zeros(0), np.zeros(0),
+                          np.zeros(0))
     g = class_groups(k, config)
     r = np.asarray(k.range, dtype=np.float64)
     rr = np.asarray(k.range_rate, dtype=np.float64)
@@ -446,4 +565,5 @@ def assess(
         behaviour=behaviours(k, config, th) if speed_known else np.full(n, int(Behaviour.UNKNOWN), dtype=np.int64),
         ettc=ettc,
         decel_req=decel,
+        behaviour_confidence=behaviour_confidence(k, config, th) if speed_known else np.zeros(n),
     )

@@ -28,7 +28,10 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from lookahead.intent.alerts import Alert
+from lookahead.intent.cipv import select_cipv
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.cooperative import FusionStage
 from lookahead.intent.labels import Assessment, Risk
@@ -69,6 +72,18 @@ STAGES = ("sim", "render", "gt", "preprocess", "detect", "track", "estimate", "i
 def camera_from_scenario(scenario: Scenario) -> CameraModel:
     c = scenario.camera
     return mounted_camera(c.width, c.height, c.fov_h, c.mount)
+
+
+def cipv_record(tracks: Tracks, est: Estimates, assessment: Assessment, gt: GroundTruth) -> dict:
+    """The tick record's ``cipv``: the primary target (``intent.cipv.select_cipv``) among the ego
+    camera's own tracks (``track_id``, estimated ``range``), and the ground truth's
+    (``truth_actor``, ``truth_range``): the closest in-path actor of a detection class with a
+    visible box. None where there is none."""
+    own = select_cipv(tracks.track_id, est.range, assessment.in_path)
+    visible = np.all(np.isfinite(np.asarray(gt.visible, dtype=np.float64).reshape(-1, 4)), axis=1)
+    truth = select_cipv(gt.actor_id, gt.range, gt.in_path, visible & (np.asarray(gt.class_id) >= 0))
+    return {"track_id": own.id, "range": None if own.range is None else round(own.range, 3),
+            "truth_actor": truth.id, "truth_range": None if truth.range is None else round(truth.range, 3)}
 
 
 @contextmanager
@@ -379,11 +394,7 @@ class Runner:
         k+1 while frame k is perceived, whenever the world may run ahead (``_may_run_ahead``);
         the records are the same as without overlap."""
         sc = self.scenario
-        info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
-                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera}
-        for s in self.sinks:
-            s.on_start(info)
-        summary = RunSummary(0, 0, 0.0, renderer=info["renderer"])
+        summary = self.start()
         overlap = self.overlap and self.renderer is not None
         pending: tuple[_Snapshot, float] | None = None  # asked of the render worker, not yet perceived
 
@@ -419,10 +430,28 @@ class Runner:
             summary.error = f"{type(e).__name__}: {e}".rstrip(": ")
             raise
         finally:
+            self.finish(summary)
+        return summary
+
+    def start(self) -> RunSummary:
+        """Every sink's ``on_start`` (scenario, seed, ticks, renderer, camera); the run's summary
+        to fill. ``run`` calls it; a caller that drives ``step`` itself (``lookahead drive``) too."""
+        sc = self.scenario
+        info = {"scenario": sc.name, "seed": sc.seed, "ticks": self.n_ticks,
+                "renderer": getattr(self.renderer, "backend", None), "camera": self.camera}
+        for s in self.sinks:
+            s.on_start(info)
+        return RunSummary(0, 0, 0.0, renderer=info["renderer"])
+
+    def finish(self, summary: RunSummary) -> RunSummary:
+        """``summary`` completed from the world (ticks, frames, time, collisions), every sink's
+        ``on_end`` with it, the runner closed."""
+        try:
             summary.ticks, summary.frames, summary.t_end = self.world.tick, self.frames_recorded, self.world.t
             summary.collisions = list(self.world.collisions)
             for s in self.sinks:
                 s.on_end(summary.to_dict())
+        finally:
             self.close()
         return summary
 

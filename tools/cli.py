@@ -132,8 +132,10 @@ USER_ERRORS: tuple[tuple[str, str], ...] = (
     ("lookahead.tools.detector.data", "DatasetError"),
     ("lookahead.tools.detector.train", "ResumeError"),
     ("lookahead.tools.runs.regress", "BaselineError"),
+    ("lookahead.tools.runs.drive", "DriveError"),
     ("lookahead.tools.runs.inputs", "ReplayError"),
     ("lookahead.tools.sinks.paths", "OutputError"),
+    ("lookahead.tools.sinks.narration", "NarrationError"),
     ("lookahead.tools.sinks.rundir", "RunDirError"),
     ("lookahead.tools.sinks.store", "StoreError"),
 )
@@ -318,12 +320,13 @@ def run_scenario(
     scenario_path: Path, out: Path, render: bool = True, renderer: str | None = None, db: Path | None = None,
     video: Path | None = None, rerun_file: Path | None = None, lang: str = "en", rerun_live: bool = False,
     detector: str | None = None, model: Path | None = None, aeb: str | None = None, raw_video: Path | None = None,
-    stack: str | None = None, coop_video: Path | None = None,
+    stack: str | None = None, coop_video: Path | None = None, narration=None,
 ) -> dict:
     """Run one scenario into ``out``; returns the run summary. ``detector`` / ``model`` / ``aeb``
     override the scenario's (``sim.scenario.with_detector``, ``with_aeb``). ``coop_video``: the
     cooperative perception MP4 (``tools.sinks.cooperative_view``; its key frame's PNGs go to
-    ``out/cooperative/``); a scenario without a ``cooperative`` section is refused.
+    ``out/cooperative/``); a scenario without a ``cooperative`` section is refused. ``narration``: a
+    ``tools.sinks.narration.NarrationConfig``: one sentence per alert into ``out/narration.jsonl``.
 
     The runner (renderer, detector model) is built before any sink, so a bad model
     or renderer fails before an output file is touched.
@@ -365,6 +368,10 @@ def run_scenario(
             from lookahead.tools.sinks.rerun import RerunSink
 
             sinks.append(RerunSink(rerun_file, spawn=rerun_live))
+        if narration is not None:
+            from lookahead.tools.sinks.narration import NARRATION_FILE, NarrationSink
+
+            sinks.append(NarrationSink(out / NARRATION_FILE, narration))
     except BaseException:
         runner.close()
         raise
@@ -373,6 +380,29 @@ def run_scenario(
         task = prog.add_task(scenario.name, total=1.0)
         summary = runner.run(progress=lambda f: prog.update(task, completed=f))
     return summary.to_dict()
+
+
+def narration_config(narrate: bool, url: str | None, model: str | None, timeout: float, key_env: str | None):
+    """The ``NarrationConfig`` of ``run``'s narration options, None when narration is off; a
+    malformed URL, a URL without a model (or a model or key without a URL), an unset key variable
+    are one-line errors before anything runs."""
+    if url is None:
+        if model is not None or key_env is not None:
+            fail("--narrate-model / --narrate-key-env need --narrate-url")
+        if not narrate:
+            return None
+    from lookahead.tools.sinks.narration import NarrationConfig, NarrationError, check_url
+
+    if url is not None:
+        try:
+            check_url(url)
+        except NarrationError as e:
+            fail(str(e))
+        if not model:
+            fail("--narrate-url needs --narrate-model NAME")
+        if key_env is not None and not os.environ.get(key_env):
+            fail(f"--narrate-key-env {key_env}: the environment variable is not set")
+    return NarrationConfig(url=url, model=model, timeout=timeout, key_env=key_env)
 
 
 @app.command()
@@ -401,20 +431,64 @@ def run(
                              "RUN_DIR/cooperative.mp4; its key frame's PNGs go to RUN_DIR/cooperative/ (scenarios "
                              "with a `cooperative:` section only)",
     )] = None,
+    narrate: Annotated[bool, typer.Option(
+        "--narrate", help="one sentence per alert (English and Chinese, from templates) into RUN_DIR/narration.jsonl",
+    )] = False,
+    narrate_url: Annotated[str | None, typer.Option(
+        "--narrate-url", help="OpenAI-compatible chat endpoint for the sentences, e.g. http://127.0.0.1:8000/v1 "
+                              "(implies --narrate; the template when it is slow, down or wrong)",
+    )] = None,
+    narrate_model: Annotated[str | None, typer.Option("--narrate-model", help="model name at --narrate-url")] = None,
+    narrate_timeout: Annotated[float, typer.Option(
+        "--narrate-timeout", min=0.01, max=60.0, help="seconds from the alert to the endpoint's answer",
+    )] = 2.0,
+    narrate_key_env: Annotated[str | None, typer.Option(
+        "--narrate-key-env", help="environment variable holding the endpoint's API key (sent as a bearer token)",
+    )] = None,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
         db = out / "run.sqlite"
     if lang not in ("en", "zh"):
         raise typer.BadParameter("--lang must be en or zh")
+    narration = narration_config(narrate, narrate_url, narrate_model, narrate_timeout, narrate_key_env)
     summary = run_scenario(scenario, out, render=render, renderer=renderer, db=db, video=video,
                            rerun_file=rerun_file, lang=lang, rerun_live=rerun_live, detector=detector, model=model,
-                           aeb=aeb, raw_video=raw_video, stack=stack, coop_video=coop_video)
+                           aeb=aeb, raw_video=raw_video, stack=stack, coop_video=coop_video, narration=narration)
     hits = summary["collisions"]
     console.print(
         f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
         f"{len(hits)} collision(s) -> {out}", highlight=False,
     )
+
+
+@app.command()
+@user_errors
+def drive(
+    scenario: Annotated[Path, typer.Argument(help=SCENARIO_HELP, parser=catalogue_path)],
+    out: Annotated[Path, typer.Option("--out", help="run directory to write (with RUN_DIR/annotated.mp4)")],
+    render: Annotated[bool, typer.Option("--render/--no-render", help="render camera frames")] = True,
+    renderer: Annotated[str | None, renderer_param()] = None,
+    lang: Annotated[str, typer.Option("--lang", help="labels: en | zh")] = "en",
+    detector: Annotated[str | None, typer.Option(help=DETECTOR_HELP)] = None,
+    model: Annotated[Path | None, typer.Option(help="ONNX model for the onnx detector (implies --detector onnx)")] = None,
+    aeb: Annotated[str | None, aeb_param()] = None,
+    realtime: Annotated[bool, typer.Option("--realtime/--as-fast", help="pace frames to the camera rate")] = True,
+) -> None:
+    """Drive the ego from the keyboard in a window (Up/Down: speed, Left/Right: lane, Esc: stop),
+    watching the stack live; the session is recorded as a run directory."""
+    if lang not in ("en", "zh"):
+        raise typer.BadParameter("--lang must be en or zh")
+    from lookahead.sim.scenario import load_scenario, with_aeb, with_detector
+    from lookahead.tools.runs.drive import DriveSession, check_display
+    from lookahead.tools.runs.drive import drive as drive_window
+
+    check_display()  # before the simulator loads or anything is written
+    sc = with_aeb(with_detector(load_scenario(scenario), detector, model), aeb)
+    session = DriveSession(sc, out, render=render, lang=lang, renderer=renderer, source=str(scenario))
+    summary = drive_window(session, realtime=realtime).to_dict()
+    console.print(f"{scenario}: {summary['frames']} frames, t={summary['t_end']:.2f} s, "
+                  f"{len(summary['collisions'])} collision(s) -> {out}", highlight=False)
 
 
 def _watch_status(status) -> str:

@@ -97,6 +97,34 @@ def table(header: list[str], rows: list[list[object]], classes: list[str] | None
     return f"<table><tr>{head}</tr>{''.join(body)}</table>"
 
 
+def confusion_table(confusion: object, title: str = "") -> str:
+    """A confusion matrix as an HTML table (rows truth, columns predicted; ``{labels, matrix}``),
+    each cell shaded by its share of the row, the diagonal green; the row totals last. Empty for
+    a missing or malformed matrix (a hand-edited ``metrics.json``)."""
+    if not isinstance(confusion, dict):
+        return ""
+    labels, m = confusion.get("labels"), confusion.get("matrix")
+    n = len(labels) if isinstance(labels, list) else 0
+    if not n or not (isinstance(m, list) and len(m) == n and all(
+            isinstance(r, list) and len(r) == n and all(isinstance(v, int | float) and not isinstance(v, bool) for v in r)
+            for r in m)):
+        return ""
+    head = "".join(f'<th>{escape(lab)}</th>' for lab in labels)
+    body = []
+    for i, (lab, r) in enumerate(zip(labels, m, strict=True)):
+        total = sum(r)
+        cells = []
+        for j, v in enumerate(r):
+            share = v / total if total else 0.0
+            colour = "19,115,51" if i == j else "197,34,31"
+            style = f' style="background:rgba({colour},{0.45 * share:.2f})"' if v else ""
+            cells.append(f"<td{style}>{escape(fmt(v))}</td>")
+        body.append(f'<tr><th class="l">{escape(lab)}</th>{"".join(cells)}<td class="muted">{escape(fmt(total))}</td></tr>')
+    caption = f"<h3>{escape(title)}</h3>" if title else ""
+    return (f'<div class="sec">{caption}<table><tr><th class="l">truth \\ predicted</th>{head}'
+            f'<th>n</th></tr>{"".join(body)}</table></div>')
+
+
 def flat_rows(d: dict, prefix: str = "") -> list[list[object]]:
     """[key path, value] rows of a nested dict, depth first (``a / b / c``); lists of dicts are
     indexed (``a / 0 / b``), other lists stay one value. Renders a section of any shape."""

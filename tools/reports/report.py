@@ -53,6 +53,7 @@ import numpy as np
 from lookahead.intent.labels import Label
 from lookahead.tools.reports.html import (
     REPORT_FILE,
+    confusion_table,
     escape,
     figure,
     fmt,
@@ -331,11 +332,53 @@ def _cards(metrics: dict) -> str:
         ("warning lead time (median s)", dg.get("lead_time_s_median")),
         ("false AEB activations / brake onsets",
          f"{aeb.get('false_activations', '—')} / {aeb.get('brake_onsets', '—')}"),
+        *_behaviour_cards(metrics),
         *_outcome_cards(cl, exp),
     ]
     cards = "".join(f'<div class="card"><div class="v">{escape(fmt(v))}</div><div class="k">{escape(k)}</div></div>'
                     for k, v in items)
     return f'<div class="cards">{cards}</div>'
+
+
+def _behaviour_cards(metrics: dict) -> list[tuple[str, object]]:
+    """Behaviour macro-F1, risk accuracy and the CIPV correct-target rate, where scored."""
+    b, c = metrics.get("behaviour"), metrics.get("cipv")
+    out: list[tuple[str, object]] = []
+    if isinstance(b, dict):
+        risk = b.get("risk") if isinstance(b.get("risk"), dict) else {}
+        out += [("behaviour macro F1", b.get("macro_f1")), ("behaviour accuracy", b.get("accuracy")),
+                ("risk-level accuracy", risk.get("accuracy"))]
+    if isinstance(c, dict):
+        out.append(("CIPV correct target", c.get("correct_rate")))
+    return out
+
+
+def behaviour_html(metrics: dict) -> str:
+    """The behaviour section: per class group the behaviour confusion matrix (rows truth), the
+    risk-level confusion, the worst behaviours, and the primary target's (CIPV) counts."""
+    b, c = metrics.get("behaviour"), metrics.get("cipv")
+    if not isinstance(b, dict) and not isinstance(c, dict):
+        return ""
+    out = ["<h2>Behaviours, risk and the primary target</h2>"]
+    if isinstance(b, dict):
+        groups = b.get("per_group") if isinstance(b.get("per_group"), dict) else {}
+        out.append('<div class="grid">')
+        for g, block in groups.items():
+            if isinstance(block, dict):
+                title = f"{g}: accuracy {fmt(block.get('accuracy'))}, macro F1 {fmt(block.get('macro_f1'))}"
+                out.append(confusion_table(block.get("confusion"), title))
+        risk = b.get("risk") if isinstance(b.get("risk"), dict) else {}
+        out.append(confusion_table(risk.get("confusion"), f"risk level: accuracy {fmt(risk.get('accuracy'))}"))
+        out.append("</div>")
+        worst = b.get("worst")
+        if isinstance(worst, list) and worst and all(isinstance(w, dict) for w in worst):
+            out.append("<h3>worst behaviours (F1)</h3>" + table(
+                ["group", "behaviour", "f1", "support"],
+                [[w.get("group"), w.get("behaviour"), w.get("f1"), w.get("support")] for w in worst]))
+    if isinstance(c, dict):
+        out.append("<h3>primary target (CIPV)</h3>" + table(
+            ["metric", "value"], [[k, v] for k, v in c.items() if not isinstance(v, dict | list)]))
+    return "".join(out)
 
 
 def _outcome_cards(cl: dict, exp: list | dict) -> list[tuple[str, object]]:
@@ -469,7 +512,8 @@ def _timing_table(timing: dict) -> str:
 
 
 #: metrics.json sections the report reads as mappings
-_METRIC_SECTIONS = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "aeb", "timing")
+_METRIC_SECTIONS = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "aeb", "timing",
+                    "behaviour", "cipv")
 
 
 def check_metrics(path: Path, metrics: dict) -> dict:
@@ -534,7 +578,8 @@ def build_run_report(run: RunDir | Path) -> Path:
            f"config {run.get('config_hash', '—')}")
     order = ("detection", "tracking", "estimation", "intent", "danger", "closed_loop", "aeb", "timing")
     sections = [k for k in order if isinstance(metrics.get(k), dict) and k != "timing"]
-    sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order and k != "cooperative"]
+    sections += [k for k, v in metrics.items() if isinstance(v, dict) and k not in order
+                 and k not in ("cooperative", "behaviour", "cipv")]  # those have their own sections
     body = [
         f"<h1>{escape(name)}</h1>",
         f'<p class="sub">{escape(sc.get("description", ""))}</p><p class="sub">{escape(sub)}</p>',
@@ -544,6 +589,7 @@ def build_run_report(run: RunDir | Path) -> Path:
         "<h2>Intent</h2>", '<div class="grid">',
         img(confusion_figure((metrics.get("intent") or {}).get("confusion") or {}), "intent confusion matrix"),
         "</div>",
+        behaviour_html(metrics),
         "<h2>Range estimation</h2>", img(range_error_figure(rd), "range error vs distance"),
         "<h2>Timing</h2>", '<div class="grid">',
         img(timing_figure(metrics.get("timing") or {}), "per-stage timing"),
@@ -567,6 +613,7 @@ _SUITE_COLS = (
     ("danger events", "danger", "events"), ("missed", "danger", "missed"),
     ("false alarms", "danger", "false_alarms"), ("lead time s", "danger", "lead_time_s_median"),
     ("AEB onsets", "aeb", "brake_onsets"), ("false AEB", "aeb", "false_activations"),
+    ("behaviour F1", "behaviour", "macro_f1"), ("CIPV correct", "cipv", "correct_rate"),
 )
 
 
@@ -635,6 +682,7 @@ def build_suite_report(suite_dir: Path) -> Path:
         body += '<div class="grid">' + img(
             confusion_figure((totals.get("intent") or {}).get("confusion") or {}), "suite intent confusion matrix"
         ) + img(timing_figure(totals.get("timing") or {}), "suite per-stage timing") + "</div>"
+        body += behaviour_html(totals)
     out = suite_dir / REPORT_FILE
     out.write_text(page(f"lookahead {title}", body), encoding="utf-8")
     log.info("suite report written: %s", out)

@@ -10,9 +10,11 @@ without a verdict: ``aeb.false_activations`` is assumed 0, so a baseline that pr
 AEB scoring still fails on the first false AEB activation.
 
 Metrics of an optional totals block (``OPTIONAL_SECTIONS``: ``cooperative``, present only
-when some run of the suite has other cameras) are left out of ``flatten`` -- and so of a
+when some run of the suite has other cameras; ``behaviour`` and ``cipv``, absent from totals
+pooled from metrics scored before they existed) are left out of ``flatten`` -- and so of a
 baseline written with ``--update-baseline`` -- when the block is absent, so suites without
-them flatten and write exactly as before; they are gated only when the baseline has them.
+them flatten and write exactly as before; they are gated only when the baseline has them (a
+baseline written before them lists them without a verdict).
 """
 
 from __future__ import annotations
@@ -45,10 +47,13 @@ TOLERANCES: dict[str, tuple[str, float]] = {
     "cooperative.occluded_recall_fused": ("up", 0.02),
     "cooperative.lead_time_median_s_fusion": ("up", 0.2),
     "cooperative.missed_fusion": ("down", 0),
+    "behaviour.accuracy": ("up", 0.02),
+    "behaviour.macro_f1": ("up", 0.02),
+    "cipv.correct_rate": ("up", 0.01),
 }
 
 #: totals blocks that only some suites have: their metrics are not flattened when the block is absent.
-OPTIONAL_SECTIONS = frozenset({"cooperative"})
+OPTIONAL_SECTIONS = frozenset({"cooperative", "behaviour", "cipv"})
 
 #: metric path -> the value a baseline that lacks the metric is taken to have.
 ASSUMED_BASELINE: dict[str, float] = {"aeb.false_activations": 0}

@@ -2,8 +2,10 @@
 
 ``score_run`` reads the run directory through ``tools.sinks.rundir.RunDir`` (each
 file parsed once), computes every section (these three, and ``intent``, ``danger``,
-``closed_loop``, ``expectations``, ``timing`` from ``tools.scoring.intent`` / ``timing``, and
-``cooperative`` from ``tools.scoring.cooperative`` for runs with other cameras)
+``closed_loop``, ``expectations``, ``timing`` from ``tools.scoring.intent`` / ``timing``,
+``behaviour`` from ``tools.scoring.behaviour``, ``cipv`` from ``tools.scoring.cipv`` for
+records with a primary target, and ``cooperative`` from ``tools.scoring.cooperative`` for
+runs with other cameras)
 and merges them into ``metrics.json`` (other sections, and foreign keys inside these,
 are kept; the file is replaced atomically, and only after everything was computed).
 Suite and sweep totals are ``tools.scoring.totals``. ``score_command`` is the body of
@@ -27,11 +29,14 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from lookahead.tools.scoring.behaviour import behaviour_section
+from lookahead.tools.scoring.cipv import cipv_section
 from lookahead.tools.scoring.cooperative import cooperative_section
 from lookahead.tools.scoring.detection import evaluate_detection
 from lookahead.tools.scoring.estimation import evaluate_estimation
 from lookahead.tools.scoring.intent import intent_sections, load_intent_run
 from lookahead.tools.scoring.io import RunData, load_run
+from lookahead.tools.scoring.narration import narration_section
 from lookahead.tools.scoring.observed import has_ground_truth, observed_section
 from lookahead.tools.scoring.occlusion import run_occlusion
 from lookahead.tools.scoring.timing import load_timings, timing_section
@@ -72,9 +77,18 @@ def compute_sections(run: RunDir | Path) -> dict[str, dict]:
         intent_run = load_intent_run(rd)
         sections.update(intent_sections(intent_run))
         sections["occlusion"] = run_occlusion(rd)  # identity kept through occlusions
+        behaviour = behaviour_section(rd, intent_run)  # behaviours and risk levels
+        if behaviour is not None:
+            sections["behaviour"] = behaviour
+        cipv = cipv_section(rd, intent_run)  # the primary target; closed-loop records only
+        if cipv is not None:
+            sections["cipv"] = cipv
         cooperative = cooperative_section(rd, intent_run)  # only runs with other cameras
         if cooperative is not None:
             sections["cooperative"] = cooperative
+        narration = narration_section(rd.path)  # only runs narrated (``lookahead run --narrate``)
+        if narration is not None:
+            sections["narration"] = narration
     else:  # real video: nothing to score against (``score --truth`` joins a simulated run's)
         load_run(rd)  # every record checked all the same
         sections = {"observed": observed_section(rd)}

@@ -8,7 +8,11 @@
   and expectations from the runs' metrics; ``occlusion_totals`` (``tools.scoring.occlusion``)
   sums the occlusion episode counts and recomputes ``kept_rate``; ``cooperative_totals``
   (``tools.scoring.cooperative``) pools the cooperative matching, occluded-recall and
-  warning counts -- a ``cooperative`` block only when some run has that section.
+  warning counts -- a ``cooperative`` block only when some run has that section;
+  ``behaviour_totals`` (``tools.scoring.behaviour``) adds the behaviour and risk confusion
+  matrices and recomputes accuracy and macro-F1, ``cipv_totals`` (``tools.scoring.cipv``)
+  sums the primary-target counts and recomputes ``correct_rate`` -- each a block only when
+  some run has that section.
 * ``sweep_totals`` -- a sweep's (``lookahead sweep``), from the variants' metrics
   alone (O(variants), no run re-read): detection and tracking counts summed with
   precision, recall and MOTA recomputed, estimation sample counts, ``intent_totals``
@@ -29,6 +33,8 @@ from typing import Any
 import numpy as np
 
 from lookahead.intent.labels import LABEL_NAMES, Label
+from lookahead.tools.scoring.behaviour import behaviour_totals
+from lookahead.tools.scoring.cipv import cipv_totals
 from lookahead.tools.scoring.cooperative import cooperative_totals
 from lookahead.tools.scoring.intent import SCORED_LABELS, rounded
 from lookahead.tools.scoring.io import RunData, concat_runs, load_run
@@ -75,10 +81,12 @@ def suite_totals(runs: Sequence[RunFrames | RunDir | Path], per_run: Sequence[di
 
 def _add_cooperative(totals: dict, per_run: Sequence[dict]) -> None:
     """``totals["cooperative"]`` when some run has a ``cooperative`` section (else nothing, so
-    totals of runs without other cameras are as before)."""
-    coop = cooperative_totals(per_run)
-    if coop is not None:
-        totals["cooperative"] = coop
+    totals of runs without other cameras are as before); likewise ``behaviour`` and ``cipv``
+    (runs scored before those sections existed have none)."""
+    for key, pool in (("behaviour", behaviour_totals), ("cipv", cipv_totals), ("cooperative", cooperative_totals)):
+        block = pool(per_run)
+        if block is not None:
+            totals[key] = block
 
 
 def intent_totals(per_run: Sequence[dict]) -> dict:

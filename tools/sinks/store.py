@@ -14,8 +14,12 @@ closing" as +inf (SQLite REAL ``Inf``). ``risk`` and alert ``level`` are
 names them) so they order; labels, behaviours and classes are text.
 
 Schema versions: 1 had label/behaviour/risk/in_path as ``tracks`` columns and no
-``assessments`` table; 2 (current) moved them to ``assessments``. Files of
-another version are refused (one line), never migrated in place.
+``assessments`` table; 2 moved them to ``assessments``; 3 (current) appends
+``assessments.behaviour_confidence`` (``intent.labels.behaviour_confidence``, in [0, 1]).
+Files of versions 2..3 (``READABLE_VERSIONS``) are read (``open_db(create=False)``,
+``lookahead query``: a version-2 file simply has no confidence column); the sink writes only
+the current version, refusing an older file (one line: use a new file) -- files are never
+migrated in place. Other versions are refused for reading too.
 
 Durability: WAL journal, ``synchronous=NORMAL``, one transaction per frame. A
 frame's rows are committed at the next ``on_tick`` (the runner completes a frame's
@@ -53,7 +57,8 @@ from lookahead.tools.sinks.rundir import config_hash, versions
 
 log = logging.getLogger(__name__)
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
+READABLE_VERSIONS = (2, 3)  # versions open_db(create=False) reads; the sink writes only SCHEMA_VERSION
 APPLICATION_ID = 0x4C4B4844  # "LKHD"
 BUSY_TIMEOUT_S = 30.0  # wait this long for another writer (parallel suite workers share a DB)
 
@@ -94,7 +99,7 @@ SCHEMA: tuple[str, ...] = (
     """CREATE TABLE assessments (
         run_id INTEGER NOT NULL REFERENCES runs(id), frame INTEGER NOT NULL, t REAL NOT NULL,
         track_id INTEGER NOT NULL, label TEXT, behaviour TEXT, risk INTEGER, ttc REAL, in_path INTEGER,
-        reason TEXT)""",
+        reason TEXT, behaviour_confidence REAL)""",
     """CREATE TABLE alerts (
         run_id INTEGER NOT NULL REFERENCES runs(id), frame INTEGER NOT NULL, t REAL NOT NULL,
         track_id INTEGER, actor_id INTEGER, cls TEXT, kind TEXT, level INTEGER, range REAL, ttc REAL,
@@ -233,7 +238,7 @@ def _state(conn: sqlite3.Connection) -> tuple[int, int, list[str]]:
 
 def _check_schema(conn: sqlite3.Connection, path: Path, create: bool) -> None:
     app, version, tables = _state(conn)
-    if app == APPLICATION_ID and version == SCHEMA_VERSION:
+    if app == APPLICATION_ID and (version == SCHEMA_VERSION or (not create and version in READABLE_VERSIONS)):
         return
     if app == 0 and version == 0 and not tables:
         if not create:
@@ -245,9 +250,14 @@ def _check_schema(conn: sqlite3.Connection, path: Path, create: bool) -> None:
         raise StoreError(
             f"{path}: not a lookahead store (application_id {app}, user_version {version}, tables: {shown})"
         )
+    if version in READABLE_VERSIONS:  # an older store, opened to write: readable, never migrated
+        raise StoreError(
+            f"{path}: lookahead store schema version {version}, this version writes only {SCHEMA_VERSION} "
+            "(use a new file; old stores stay readable, they are not migrated)"
+        )
     raise StoreError(
-        f"{path}: lookahead store schema version {version}, this version reads only {SCHEMA_VERSION} "
-        "(use a new file; old stores are not migrated)"
+        f"{path}: lookahead store schema version {version}, this version reads only versions "
+        f"{READABLE_VERSIONS[0]}-{READABLE_VERSIONS[-1]} (use a new file; old stores are not migrated)"
     )
 
 
@@ -486,7 +496,8 @@ class SqliteStore:
     @staticmethod
     def _assessment_cols(r: TickRecord) -> list[list]:
         """label, behaviour, risk, ttc (constant velocity), in_path, reason (with the enhanced TTC, as
-        alerts give it) of each track (``r.assessments`` row order)."""
+        alerts give it), behaviour_confidence (NULL when not assessed) of each track (``r.assessments``
+        row order)."""
         a, n = r.assessments, len(r.assessments)
         rng = r.estimates.range.tolist() if r.estimates is not None else [float("nan")] * n
         ttc, beh, lab, risk = a.ttc.tolist(), a.behaviour.tolist(), a.label.tolist(), a.risk.tolist()
@@ -497,5 +508,6 @@ class SqliteStore:
             _names(_LABELS, a.label, n), _names(_BEHAVIOURS, a.behaviour, n),
             np.asarray(a.risk, dtype=np.int64).tolist(), ttc, np.asarray(a.in_path, dtype=np.int64).tolist(),
             reasons,
+            [None] * n if a.behaviour_confidence is None else np.asarray(a.behaviour_confidence, dtype=np.float64).tolist(),
         ]
 

@@ -281,7 +281,8 @@ def test_assessments_table_matches_the_run_directory(db):
     ticks = [json.loads(line) for line in (run_dir / "ticks.jsonl").read_text().splitlines()]
     conn = sqlite3.connect(path)
     cols = [r[1] for r in conn.execute("PRAGMA table_info(assessments)")]
-    assert cols == ["run_id", "frame", "t", "track_id", "label", "behaviour", "risk", "ttc", "in_path", "reason"]
+    assert cols == ["run_id", "frame", "t", "track_id", "label", "behaviour", "risk", "ttc", "in_path", "reason",
+                    "behaviour_confidence"]
     assert not {"label", "behaviour", "risk", "in_path"} & {r[1] for r in conn.execute("PRAGMA table_info(tracks)")}
     assert count(conn, "assessments", 1) == count(conn, "tracks", 1) == sum(len(t["tracks"]["track_id"]) for t in ticks)
     rows = conn.execute("SELECT frame, track_id, label, behaviour, risk, ttc, in_path, reason FROM assessments "
@@ -328,9 +329,41 @@ def test_an_old_schema_version_is_one_line_and_untouched(tmp_path, capsys, looka
     with pytest.raises(StoreError) as e:
         SqliteStore(old, load_scenario(PED))
     msg = str(e.value)
-    assert "schema version 1" in msg and f"reads only {SCHEMA_VERSION}" in msg and "\n" not in msg
+    assert "schema version 1" in msg and "reads only versions 2-3" in msg and "\n" not in msg
     assert query_command(lookahead, old, "summary", None, "table") == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "schema version 1" in err
     assert old.read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["v1.sqlite"]
+
+
+def test_behaviour_confidence_is_stored(db):
+    """assessments.behaviour_confidence: the record's, per track per frame, in [0, 1]."""
+    path, run_dir = db
+    ticks = [json.loads(line) for line in (run_dir / "ticks.jsonl").read_text().splitlines()]
+    want = [c for t in ticks if (a := t["assessments"]) for c in a["behaviour_confidence"]]
+    conn = sqlite3.connect(path)
+    got = [r[0] for r in conn.execute("SELECT behaviour_confidence FROM assessments WHERE run_id = 1 ORDER BY frame, rowid")]
+    assert len(want) > 0 and got == pytest.approx(want, abs=1e-3)
+    assert all(0.0 <= c <= 1.0 for c in got)
+
+
+def test_a_version_2_store_is_read_but_not_written(tmp_path, capsys, lookahead):
+    """A version-2 store (assessments without behaviour_confidence) stays readable by query;
+    the sink refuses to append to it (one line) and leaves it untouched."""
+    old = tmp_path / "v2.sqlite"
+    with sqlite3.connect(old) as c:
+        c.execute("CREATE TABLE runs (id INTEGER PRIMARY KEY, name TEXT, scenario TEXT, seed INTEGER, "
+                  "started TEXT, ended TEXT, complete INTEGER, error TEXT)")
+        c.execute(f"PRAGMA application_id={APPLICATION_ID}")
+        c.execute("PRAGMA user_version=2")
+    before = old.read_bytes()
+    with pytest.raises(StoreError) as e:
+        SqliteStore(old, load_scenario(PED))
+    msg = str(e.value)
+    assert "schema version 2" in msg and f"writes only {SCHEMA_VERSION}" in msg and "\n" not in msg
+    from lookahead.tools.sinks.store import open_db
+    conn = open_db(old, create=False)  # readable
+    assert conn.execute("SELECT COUNT(*) FROM runs").fetchone()[0] == 0
+    conn.close()
+    assert old.read_bytes() == before
