@@ -31,7 +31,8 @@ BEHAVIOUR_NAMES_ZH = {
     Behaviour.UNKNOWN: "未知", Behaviour.STANDING: "站立", Behaviour.WALKING: "行走", Behaviour.RUNNING: "奔跑",
     Behaviour.CROSSING: "横穿", Behaviour.STOPPED: "停止", Behaviour.MOVING: "行驶", Behaviour.SPEEDING: "超速",
     Behaviour.SUDDEN_BRAKE: "急刹", Behaviour.SUDDEN_TURN: "急转", Behaviour.WRONG_WAY: "逆行",
-    Behaviour.STATIONARY: "静止", Behaviour.ENTERING_ROAD: "闯入道路",
+    Behaviour.STATIONARY: "静止", Behaviour.ENTERING_ROAD: "闯入道路", Behaviour.LOITERING: "徘徊",
+    Behaviour.WAVING: "挥手", Behaviour.FALLING: "摔倒",
 }
 
 

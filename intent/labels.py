@@ -143,6 +143,9 @@ class Behaviour(IntEnum):
     WRONG_WAY = 10
     STATIONARY = 11
     ENTERING_ROAD = 12
+    LOITERING = 13  # a pedestrian pacing to and fro at the kerb
+    WAVING = 14  # a pedestrian waving an arm overhead
+    FALLING = 15  # a pedestrian falling, or lying on the road
 
 
 BEHAVIOUR_NAMES = {b: b.name.lower() for b in Behaviour}

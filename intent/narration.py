@@ -80,6 +80,9 @@ BEHAVIOUR_EN = {
     Behaviour.WRONG_WAY: "going the wrong way",
     Behaviour.STATIONARY: "standing still",
     Behaviour.ENTERING_ROAD: "entering the road",
+    Behaviour.LOITERING: "loitering",
+    Behaviour.WAVING: "waving",
+    Behaviour.FALLING: "fallen",
 }
 SIDE_EN = {"left": "on the left", "ahead": "ahead", "right": "on the right", "unknown": ""}
 SIDE_ZH = {"left": "左前方", "ahead": "正前方", "right": "右前方", "unknown": ""}

@@ -35,6 +35,7 @@ import numpy as np
 
 from lookahead.intent.alerts import AlertConfig, AlertManager
 from lookahead.intent.config import IntentConfig
+from lookahead.intent.gestures import GestureRecognizer
 from lookahead.intent.labels import Kinematics
 from lookahead.intent.stack import PerceptionStack
 from lookahead.perception.camera import CameraModel
@@ -137,6 +138,7 @@ class PluginStack(PerceptionStack):
         self.intent_config = intent_config
         self.alerts = AlertManager(alert_config)
         self.fusion = None
+        self.gestures = GestureRecognizer()
         self._process = process
         self._truth = _positional(process) >= 2
         self._where = f"stack plug-in {ref!r}: process"

@@ -18,6 +18,7 @@ import numpy as np
 from lookahead.intent.alerts import Alert, AlertConfig, AlertManager
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.cooperative import FusionStage
+from lookahead.intent.gestures import GestureRecognizer
 from lookahead.intent.labels import Assessment, Kinematics, Risk, assess
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.config import DEFAULT_MODEL, DetectorSpec, PerceptionSpec, SettingsError
@@ -88,6 +89,7 @@ class PerceptionStack:
         self.intent_config = intent_config
         self.alerts = AlertManager(alert_config)
         self.fusion: FusionStage | None = None  # others' objects joined before intent (``intent.cooperative``)
+        self.gestures = GestureRecognizer()  # pedestrians' gestures from their tracks' history
 
     def reconfigure(
         self, *, intent_config: IntentConfig | None = None, alert_config: AlertConfig | None = None,
@@ -168,6 +170,7 @@ class PerceptionStack:
             for old, new in self.fusion.handovers if self.fusion.enabled else ():
                 self.alerts.hand_over(old, new)
         assessment = assess(kin, self.intent_config, ego_speed, odo.yaw_rate, odo.accel)
+        self.gestures.update(frame.t, tracks, est, assessment)  # falling, waving, loitering: over time
         alerts = self.alerts.update(frame.t, ids, classes, kin.range, assessment)
         if self.fusion is not None:
             assessment = self.fusion.split(assessment)

@@ -14,6 +14,7 @@ import numpy as np
 from highway_env.road.road import Road
 from highway_env.vehicle.kinematics import Vehicle
 
+from lookahead.intent.labels import Behaviour
 from lookahead.sim.scenario import DEFAULT_ACCEL, ActionSpec, ActorSpec, StepSpec
 
 DEFAULT_TURN_RATE = {"pedestrian": 3.0, "animal": 3.0, "car": 0.6, "truck": 0.4, "bus": 0.4}
@@ -23,6 +24,15 @@ LATERAL_SPEED_MAX = 1.2  # m/s during a scripted lane change or lateral move
 def wrap(a: float) -> float:
     """Angle wrapped to [-pi, pi)."""
     return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+#: Gestures (``ActionSpec.gesture``): the arm's pitch overhead and its wave (rad, Hz), the
+#: time to raise it (s); the time a fall takes to lie flat (s) and the stop it forces (m/s^2);
+#: a loiter's default pacing speed (m/s).
+WAVE_ARM, WAVE_SWING, WAVE_HZ, WAVE_RAISE_S = -2.7, 0.35, 1.5, 0.4
+FALL_S, FALL_DECEL = 0.8, 6.0
+LOITER_SPEED = 0.8
+GESTURE_BEHAVIOUR = {"loiter": int(Behaviour.LOITERING), "wave": int(Behaviour.WAVING), "fall": int(Behaviour.FALLING)}
 
 
 @dataclass
@@ -68,6 +78,11 @@ class ScriptedActor(Vehicle):
         self.lane_y = None  # callable lane -> world y, set by the world
         self.gait_phase = 0.0
         self.started = False
+        self.gesture = "none"  # wave | fall | loiter | none (``ActionSpec.gesture``)
+        self.gesture_t = 0.0  # s since the gesture began
+        self.arm = 0.0  # rad, the gesture arm's pitch (sim.shapes.Pose)
+        self.body = 0.0  # rad, the whole body's pitch: pi / 2 lying on the road
+        self.loiter: tuple[np.ndarray, np.ndarray, float] | None = None  # centre, axis (world), half length (m)
 
     # -------------------------------------------------------------- world-frame state
     @property
@@ -102,6 +117,46 @@ class ScriptedActor(Vehicle):
         if action.lateral is not None:
             self.target_y = float(self.to_world(np.array([0.0, action.lateral]))[1])
             self.target_heading, self.waypoints = None, []
+        if action.gesture is not None:
+            self._start_gesture(action)
+
+    def _start_gesture(self, action: ActionSpec) -> None:
+        self.gesture, self.gesture_t = action.gesture, 0.0
+        self.loiter = None
+        if action.gesture == "fall":
+            self.target_speed = 0.0
+            self.accel_limit = max(self.accel_limit, FALL_DECEL)
+        elif action.gesture == "loiter":
+            axis = np.array([np.cos(self.yaw), np.sin(self.yaw)])
+            self.loiter = (self.xy.copy(), axis, float(action.loiter_m))
+            if action.speed is None:
+                self.target_speed = LOITER_SPEED
+            self.target_heading, self.waypoints, self.target_y = None, [], None
+        elif action.gesture == "none":
+            self.arm = 0.0
+
+    @property
+    def gesture_code(self) -> int:
+        """The gesture as ground truth's behaviour code (``intent.labels.Behaviour``), 0 none."""
+        return GESTURE_BEHAVIOUR.get(self.gesture, 0)
+
+    def _gesture_step(self, dt: float, yaw: float, xy: np.ndarray) -> float:
+        """Advance the gesture by ``dt`` s: the arm's wave, the body's fall; a loiter turns round
+        at the ends of its pacing. Returns the yaw to move along."""
+        self.gesture_t += dt
+        t = self.gesture_t
+        if self.gesture == "wave":
+            raised = min(1.0, t / WAVE_RAISE_S)
+            self.arm = raised * (WAVE_ARM + WAVE_SWING * np.sin(2.0 * np.pi * WAVE_HZ * t))
+        elif self.gesture == "fall":
+            self.body = min(np.pi / 2, np.pi / 2 * (t / FALL_S) ** 2)  # a toppling body speeds up
+        elif self.loiter is not None:
+            centre, axis, half = self.loiter
+            along = float(np.dot(xy - centre, axis))
+            heading = np.array([np.cos(yaw), np.sin(yaw)])
+            if abs(along) >= half and np.sign(along) == np.sign(np.dot(heading, axis)):
+                yaw = wrap(yaw + np.pi)  # a pedestrian turns round on the spot
+        return yaw
 
     def update_script(self, t: float, holds) -> None:
         """Fire the next script step when its trigger holds; ``holds(trigger, actor)`` decides."""
@@ -153,6 +208,8 @@ class ScriptedActor(Vehicle):
                 desired = self.target_heading
         if desired is not None and speed > 1e-3:
             yaw = yaw + float(np.clip(wrap(desired - yaw), -self.turn_rate * dt, self.turn_rate * dt))
+        if self.gesture != "none":
+            yaw = self._gesture_step(dt, yaw, xy)
         xy = xy + speed * dt * np.array([np.cos(yaw), np.sin(yaw)])
         if self.impact is not None and np.any(self.impact):
             xy = xy + np.array([self.impact[0], -self.impact[1]])

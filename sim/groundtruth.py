@@ -148,7 +148,7 @@ def _rotate_z(v: np.ndarray, yaw: np.ndarray) -> np.ndarray:
 
 
 def silhouette_boxes(
-    camera: CameraModel, shapes: list, phases: np.ndarray, base: np.ndarray, yaw: np.ndarray
+    camera: CameraModel, shapes: list, phases: list, base: np.ndarray, yaw: np.ndarray
 ) -> np.ndarray:
     """Amodal 2D boxes (N, 4): the box of the projections of every part's surface points.
 
@@ -161,7 +161,6 @@ def silhouette_boxes(
     n = len(shapes)
     if n == 0:
         return np.zeros((0, 4))
-    phases = [float(ph) for ph in phases]
     corners = [sh.part_corners(ph) for sh, ph in zip(shapes, phases, strict=True)]
     points = np.concatenate([sh.part_points(ph) for sh, ph in zip(shapes, phases, strict=True)])
     counts = np.array([len(c) for c in corners])
@@ -223,12 +222,13 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig,
     rel = ego_frame(np.array([ox, oy]), oyaw, st.xy)
     idx = np.nonzero(seen & (rel[:, 0] > -10.0) & (rel[:, 0] < GT_MAX_RANGE + 20.0))[0]
     shapes = [viewed[i].identity.shape for i in idx]
-    phases = st.gait_phase[idx]
+    all_poses = st.poses()
+    phases = [all_poses[i] for i in idx]  # sim.shapes.Pose: gait phase, or with a gesture
     # Actor-local origin in the ego frame: on the surface it stands on (pavements are raised).
     base = np.column_stack([rel[idx], world.layout.surface_height(st.xy[idx])])
     ryaw = st.yaw[idx] - oyaw
     # Tight 3D boxes at the current gait phase.
-    local = [sh.local_box(float(ph)) for sh, ph in zip(shapes, phases, strict=True)]
+    local = [sh.local_box(ph) for sh, ph in zip(shapes, phases, strict=True)]
     lc = np.array([c for c, _ in local]).reshape(-1, 3)
     size = np.array([z for _, z in local]).reshape(-1, 3)
     centre = base + _rotate_z(lc, ryaw)
@@ -239,7 +239,7 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig,
         idx[ranged], base[ranged], ryaw[ranged], centre[ranged], size[ranged], corners[ranged], rng[ranged]
     )
     shapes = [sh for sh, k in zip(shapes, ranged, strict=True) if k]
-    phases = phases[ranged]
+    phases = [ph for ph, k in zip(phases, ranged, strict=True) if k]
     agents = [viewed[i] for i in idx]
     n = len(idx)
     half_w = (corners[..., 1].max(axis=1) - corners[..., 1].min(axis=1)) / 2.0
@@ -279,6 +279,8 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig,
         height=size[:, 2],
     )
     a = assess(kin, config, ego_speed=speed, ego_yaw_rate=w, ego_accel=accel)
+    gesture = st.gesture[idx]  # a scripted wave, fall or loiter is that behaviour, whatever the motion
+    a.behaviour = np.where(gesture > 0, gesture, a.behaviour)
     return GroundTruth(
         actor_id=ids,
         name=[ag.identity.name for ag in agents],

@@ -338,6 +338,10 @@ class ActionSpec(Strict):
     lane: Lane | None = Field(None, description="change to this lane")
     lateral: Lateral | None = Field(None, description="move to this ego-relative-at-t0 y (m)")
     stop: bool | None = None
+    gesture: Literal["wave", "fall", "loiter", "none"] | None = Field(
+        None, description="pedestrians: wave an arm overhead, fall onto the road (stopping), loiter (pace to and "
+        "fro along the heading within loiter_m of here at speed, default 0.8 m/s), or none (stop gesturing)")
+    loiter_m: float = Field(1.5, gt=0.0, le=20.0, description="m each way of a loiter's pacing")
 
 
 class StepSpec(Strict):

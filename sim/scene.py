@@ -45,7 +45,7 @@ from lookahead.sim.roadside import (
     lamp_posts,
     zone_side,
 )
-from lookahead.sim.shapes import ActorShape, Part
+from lookahead.sim.shapes import ActorShape, Part, pose_parts
 
 log = logging.getLogger(__name__)
 
@@ -544,8 +544,9 @@ class Scene:
             p.removeBody(a.body, physicsClientId=self._client.cid)
 
     def place_actors(self, actors: Mapping[int, Sequence[float]]) -> None:
-        """Pose the actors ``actors`` (id -> world (x, y, heading, gait_phase)) on the surface
-        under them; added actors not in the mapping are hidden."""
+        """Pose the actors ``actors`` (id -> world (x, y, heading, pose): ``sim.shapes.Pose``, the
+        gait phase or (gait phase, arm, body)) on the surface under them; added actors not in
+        the mapping are hidden."""
         unknown = set(actors) - set(self._actors)
         if unknown:
             raise KeyError(f"actors {sorted(unknown)} were not added to the renderer")
@@ -558,16 +559,20 @@ class Scene:
             return
         ids = list(actors)
         poses = np.array(
-            [[float(v) for v in actors[i][:4]] for i in ids], dtype=np.float64
-        ).reshape(-1, 4)
+            [[float(v) for v in actors[i][:3]] for i in ids], dtype=np.float64
+        ).reshape(-1, 3)
         z = self.layout.surface_height(poses[:, :2])
-        for aid, (x, y, heading, phase), zi in zip(ids, poses, z, strict=True):
+        for aid, (x, y, heading), zi in zip(ids, poses, z, strict=True):
             a = self._actors[aid]
+            pose = actors[aid][3]  # gait phase, or (gait phase, arm, body): sim.shapes.Pose
+            body = pose_parts(pose)[2]
+            orientation = quat_z(heading) if not body else p.multiplyTransforms(
+                [0, 0, 0], quat_z(heading), [0, 0, 0], p.getQuaternionFromEuler([0.0, body, 0.0]))[1]
             p.resetBasePositionAndOrientation(
-                a.body, [x, y, float(zi)], quat_z(heading), physicsClientId=cid
+                a.body, [x, y, float(zi)], orientation, physicsClientId=cid
             )
             if a.joints:
-                th = a.shape.swing_angles(phase)[a.parts]
+                th = a.shape.swing_angles(pose)[a.parts]
                 p.resetJointStatesMultiDof(
                     a.body, a.joints, [[float(t)] for t in th], physicsClientId=cid
                 )

@@ -9,6 +9,12 @@ axis through its ``pivot`` (legs, arms): its angle is
 where ``gait_phase`` (rad) advances by 2 pi per ``stride`` metres travelled
 (``ActorShape.gait_phase_at``). ``local_box`` is the exact, tight axis-aligned box of
 all parts at a phase; ground truth projects it, the renderer draws the same parts.
+
+Gestures. A pose (``Pose``) is the gait phase alone, or ``(gait_phase, arm, body)``: ``arm``
+(rad) pitches the parts with a ``gesture`` weight (a pedestrian's right arm) further about
+their pivot (``-2.6`` raises an arm overhead: a wave), and ``body`` (rad) pitches the whole
+actor about the local y axis through its origin on the ground (``+pi / 2``: lying forward
+along +x, fallen). Every geometry function takes either form.
 """
 
 from __future__ import annotations
@@ -32,6 +38,15 @@ SUBTYPES: dict[str, tuple[str, ...]] = {
 
 Vec3 = tuple[float, float, float]
 Rgba = tuple[float, float, float, float]
+Pose = float | tuple[float, float, float]  # gait phase, or (gait phase, arm, body) (rad; module docstring)
+
+
+def pose_parts(pose: Pose) -> tuple[float, float, float]:
+    """(gait phase, arm, body) of ``pose`` (rad); a bare gait phase has no gesture."""
+    if np.ndim(pose) == 0:
+        return float(pose), 0.0, 0.0  # type: ignore[arg-type]
+    g, a, b = (float(v) for v in pose)  # type: ignore[union-attr]
+    return g, a, b
 _AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
@@ -52,6 +67,7 @@ class Part:
         tilt: static rotation (rad) about the part's own centre and the local y
             axis, applied at rest (+ tips the part's +z toward +x). Extension: lets
             frames, riders' limbs and animals' necks lean.
+        gesture: weight of a pose's ``arm`` angle in this part's swing (1: the arm that waves).
     """
 
     kind: Literal["box", "cylinder", "sphere"]
@@ -63,6 +79,7 @@ class Part:
     pivot: Vec3 = (0.0, 0.0, 0.0)
     phase: float = 0.0
     tilt: float = 0.0
+    gesture: float = 0.0
 
 
 _UNIT_CORNERS = np.array(
@@ -97,6 +114,7 @@ class ActorShape:
     _swing: np.ndarray = field(init=False, repr=False, compare=False)
     _phase: np.ndarray = field(init=False, repr=False, compare=False)
     _tilt: np.ndarray = field(init=False, repr=False, compare=False)
+    _gesture: np.ndarray = field(init=False, repr=False, compare=False)
     _half: np.ndarray = field(init=False, repr=False, compare=False)
     _axis: np.ndarray = field(init=False, repr=False, compare=False)
     _kind: np.ndarray = field(init=False, repr=False, compare=False)
@@ -113,26 +131,40 @@ class ActorShape:
         put(self, "_swing", np.array([p.swing for p in ps], dtype=np.float64))
         put(self, "_phase", np.array([p.phase for p in ps], dtype=np.float64))
         put(self, "_tilt", np.array([p.tilt for p in ps], dtype=np.float64))
+        put(self, "_gesture", np.array([p.gesture for p in ps], dtype=np.float64))
         put(self, "_half", np.array([p.half_extents for p in ps], dtype=np.float64))
         put(self, "_axis", np.array([_AXES[p.axis] for p in ps], dtype=np.float64))
         put(self, "_kind", np.array([{"box": 0, "cylinder": 1, "sphere": 2}[p.kind] for p in ps]))
         put(self, "_animated", bool(self.stride > 0 and np.any(self._swing != 0.0)))
-        put(self, "_rest", self._box(np.zeros(len(ps))))
+        put(self, "_rest", self._box(self._centres(np.zeros(len(ps))), self._tilt))
 
     # ------------------------------------------------------------------ poses
-    def swing_angles(self, gait_phase: float) -> np.ndarray:
-        """Swing angle (P,) of each part (rad) at ``gait_phase`` (rad); 0 when not animated."""
-        if not self._animated:
-            return np.zeros(len(self.parts))
-        return self._swing * np.sin(gait_phase + self._phase)
+    def swing_angles(self, pose: Pose) -> np.ndarray:
+        """Swing angle (P,) of each part (rad) in ``pose``: the gait's (0 when not animated)
+        plus the pose's ``arm`` times the part's ``gesture`` weight."""
+        g, arm, _ = pose_parts(pose)
+        th = self._swing * np.sin(g + self._phase) if self._animated else np.zeros(len(self.parts))
+        return th + arm * self._gesture if arm else th
 
-    def part_poses(self, gait_phase: float) -> tuple[np.ndarray, np.ndarray]:
-        """Part centres (P, 3) and pitch angles about local y (P,) at ``gait_phase`` (rad).
+    def _articulated(self, pose: Pose) -> tuple[np.ndarray, np.ndarray]:
+        """Part centres (P, 3) and pitches (P,) in ``pose``: swung parts, then the whole body
+        pitched by the pose's ``body`` about the origin."""
+        th = self.swing_angles(pose)
+        centres, pitch = self._centres(th), th + self._tilt
+        body = pose_parts(pose)[2]
+        if body:
+            c, s = np.cos(body), np.sin(body)
+            x, z = centres[:, 0].copy(), centres[:, 2].copy()
+            centres[:, 0], centres[:, 2] = c * x + s * z, -s * x + c * z
+            pitch = pitch + body
+        return centres, pitch
+
+    def part_poses(self, pose: Pose) -> tuple[np.ndarray, np.ndarray]:
+        """Part centres (P, 3) and pitch angles about local y (P,) in ``pose``.
 
         Local frame; the pitch includes the static ``tilt``.
         """
-        th = self.swing_angles(gait_phase)
-        return self._centres(th), th + self._tilt
+        return self._articulated(pose)
 
     def _centres(self, th: np.ndarray) -> np.ndarray:
         c, s = np.cos(th), np.sin(th)
@@ -143,10 +175,8 @@ class ActorShape:
         out[:, 2] += -s * d[:, 0] + c * d[:, 2]
         return out
 
-    def _box(self, th: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Tight box (center, size) of all parts with swing angles ``th`` (P,)."""
-        centres = self._centres(th)
-        a = th + self._tilt
+    def _box(self, centres: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Tight box (center, size) of all parts at ``centres`` (P, 3) pitched by ``a`` (P,)."""
         c, s = np.abs(np.cos(a)), np.abs(np.sin(a))
         h = self._half
         # Box: rotated about y; extents sum |R_ij| h_j.
@@ -165,15 +195,14 @@ class ActorShape:
         hi = (centres + ext).max(axis=0)
         return (lo + hi) / 2.0, hi - lo
 
-    def part_corners(self, gait_phase: float = 0.0) -> np.ndarray:
-        """Corners (P, 8, 3) of each part's own bounding box at ``gait_phase`` (rad), local frame.
+    def part_corners(self, pose: Pose = 0.0) -> np.ndarray:
+        """Corners (P, 8, 3) of each part's own bounding box in ``pose``, local frame.
 
         Boxes are exact; a cylinder's box has its half-length along the axis and
         its radius across; a sphere's is a cube. The union of their projections
         bounds the rendered silhouette (exactly for box parts).
         """
-        th = self.swing_angles(gait_phase)
-        centres, pitch = self._centres(th), th + self._tilt
+        centres, pitch = self._articulated(pose)
         h = self._half
         cyl = self._axis * h[:, 2:3] + (1.0 - self._axis) * h[:, 0:1]
         half = np.where((self._kind == 1)[:, None], cyl, h)
@@ -184,15 +213,14 @@ class ActorShape:
         z = -s * local[..., 0] + c * local[..., 2]
         return np.stack([x, local[..., 1], z], axis=-1) + centres[:, None, :]
 
-    def part_points(self, gait_phase: float = 0.0) -> np.ndarray:
-        """Surface points (P, 32, 3) of each part at ``gait_phase`` (rad), local frame.
+    def part_points(self, pose: Pose = 0.0) -> np.ndarray:
+        """Surface points (P, 32, 3) of each part in ``pose``, local frame.
 
         Boxes: their 8 corners (repeated); cylinders: two rims of 16 points;
         spheres: 32 points spread over the surface. Their projections bound the
         rendered silhouette much more tightly than the parts' bounding boxes.
         """
-        th = self.swing_angles(gait_phase)
-        centres, pitch = self._centres(th), th + self._tilt
+        centres, pitch = self._articulated(pose)
         h = self._half
         # Cylinder rims in a frame whose z is the cylinder axis, then mapped onto the part's axis.
         rim = np.concatenate([_RIM, _RIM * [1.0, 1.0, -1.0]])  # (32, 3), unit radius / half-length
@@ -209,14 +237,15 @@ class ActorShape:
         z = -s * local[..., 0] + c * local[..., 2]
         return np.stack([x, local[..., 1], z], axis=-1) + centres[:, None, :]
 
-    def local_box(self, gait_phase: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-        """Tight axis-aligned box of all parts at ``gait_phase`` (rad), local frame.
+    def local_box(self, pose: Pose = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Tight axis-aligned box of all parts in ``pose``, local frame.
 
         Returns center (3,) and size (3,) = (length x, width y, height z), metres.
         """
-        if not self._animated:
+        _, arm, body = pose_parts(pose)
+        if not self._animated and not (arm and self._gesture.any()) and not body:
             return self._rest[0].copy(), self._rest[1].copy()
-        return self._box(self.swing_angles(gait_phase))
+        return self._box(*self._articulated(pose))
 
     @property
     def footprint(self) -> tuple[float, float]:
@@ -267,10 +296,11 @@ class _Builder:
         phase: float = 0.0,
         pivot: tuple[float, float] | None = None,
         square: bool = False,
+        gesture: float = 0.0,
     ) -> None:
         """A cylinder (or square rod) from ``top`` to ``bottom`` (x, z) at lateral ``y``.
 
-        Swings about ``pivot`` (x, z), by default ``top``.
+        Swings about ``pivot`` (x, z), by default ``top``; ``gesture``: its weight of a pose's arm angle.
         """
         (x0, z0), (x1, z1) = top, bottom
         ux, uz = x0 - x1, z0 - z1
@@ -278,7 +308,7 @@ class _Builder:
         tilt = float(np.arctan2(ux, uz))
         pv = top if pivot is None else pivot
         c = ((x0 + x1) / 2, y, (z0 + z1) / 2)
-        kw = {"swing": swing, "phase": phase, "pivot": (pv[0], y, pv[1]), "tilt": tilt}
+        kw = {"swing": swing, "phase": phase, "pivot": (pv[0], y, pv[1]), "tilt": tilt, "gesture": gesture}
         if square:
             self.parts.append(Part("box", (r, r, hl), _f3(c), rgba, **kw))
         else:
@@ -299,6 +329,7 @@ class _Builder:
                 _f3(np.asarray(p.pivot) + off),
                 p.phase,
                 p.tilt,
+                p.gesture,
             )
             for p in self.parts
         )
@@ -368,7 +399,7 @@ def _person_standing(b: _Builder, rng: np.random.Generator, height: float, child
         b.limb((0.0, leg_len), (0.0, 0.0), y, leg_r, legs, swing=swing_leg, phase=ph)
         ya = side * (hy + arm_r + 0.005)
         b.limb((0.0, shoulder - arm_r), (0.0, shoulder - arm_r - 0.38 * H), ya, arm_r, shirt,
-               swing=swing_arm, phase=ph + np.pi)  # fmt: skip
+               swing=swing_arm, phase=ph + np.pi, gesture=1.0 if side < 0 else 0.0)  # the right arm waves
     b.box((0.0, 0.0, (leg_len + shoulder) / 2), (hx, hy, (shoulder - leg_len) / 2 + 0.02), shirt)
     b.cyl((0.0, 0.0, shoulder + 0.03 * H), 0.045 * s, 0.035 * H, skin)
     b.sph((0.0, 0.0, H - head_r), head_r, skin)

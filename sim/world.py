@@ -50,8 +50,20 @@ class AgentStates:
     accel: np.ndarray  # (N,) m/s^2 along the heading, over the last tick
     yaw_rate: np.ndarray  # (N,) rad/s over the last tick
     gait_phase: np.ndarray  # (N,) rad
+    arm: np.ndarray  # (N,) rad, the gesture arm's pitch (a wave; sim.shapes.Pose)
+    body: np.ndarray  # (N,) rad, the whole body's pitch (a fall)
+    gesture: np.ndarray  # (N,) int, the scripted gesture as a behaviour code (intent.labels.Behaviour), 0 none
     length: np.ndarray  # (N,) m, collision footprint
     width: np.ndarray  # (N,) m
+
+    def poses(self) -> list:
+        """Each agent's ``sim.shapes.Pose`` (the gait phase, or (gait phase, arm, body))."""
+        return [_pose(g, a, b) for g, a, b in zip(self.gait_phase, self.arm, self.body, strict=True)]
+
+
+def _pose(gait: float, arm: float, body: float):
+    """A ``sim.shapes.Pose``: the bare gait phase unless the actor gestures."""
+    return float(gait) if not arm and not body else (float(gait), float(arm), float(body))
 
 
 def nearest_x_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
@@ -92,7 +104,7 @@ class World:
         # what other cameras see of the ego (``viewpoint``): a sedan; id 0 is the ego's
         self.ego.identity = Identity(EGO_ACTOR_ID, "ego", "car", "sedan", make_shape("car", "sedan", self._rng(4)),
                                      scripted=False)
-        self.ego.gait_phase = 0.0
+        self.ego.gait_phase = self.ego.arm = self.ego.body = 0.0
         front0 = np.array([ego_spec.s + ego_spec.length / 2.0, self.geometry.lane_y(ego_spec.lane)])
         self._origin0 = front0
 
@@ -170,8 +182,8 @@ class World:
         """Actor id -> world (x, y, heading, gait phase) (m, rad): what the renderer poses; with
         ``with_ego``, the ego's body too (``EGO_ACTOR_ID``), for other cameras."""
         st = self.agent_states(with_ego)
-        return {int(i): (float(x), float(y), float(h), float(p))
-                for i, (x, y), h, p in zip(st.ids, st.xy, st.yaw, st.gait_phase, strict=True)}
+        return {int(i): (float(x), float(y), float(h), pose)
+                for i, (x, y), h, pose in zip(st.ids, st.xy, st.yaw, st.poses(), strict=True)}
 
     def viewed_agents(self, with_ego: bool = False) -> list:
         """The non-ego agents, and the ego last with ``with_ego`` (what another camera may see)."""
@@ -199,6 +211,9 @@ class World:
             accel=np.concatenate([self._accel, *ego_row[:1]]),
             yaw_rate=np.concatenate([self._yaw_rate, *ego_row[1:]]),
             gait_phase=np.array([getattr(v, "gait_phase", 0.0) for v in a], dtype=np.float64),
+            arm=np.array([getattr(v, "arm", 0.0) for v in a], dtype=np.float64),
+            body=np.array([getattr(v, "body", 0.0) for v in a], dtype=np.float64),
+            gesture=np.array([getattr(v, "gesture_code", 0) for v in a], dtype=np.int64),
             length=np.array([v.LENGTH for v in a], dtype=np.float64),
             width=np.array([v.WIDTH for v in a], dtype=np.float64),
         )

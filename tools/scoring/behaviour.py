@@ -43,7 +43,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from lookahead.intent.labels import BEHAVIOUR_NAMES, GROUP_OF_CLASS, Behaviour, Label, Risk
-from lookahead.tools.scoring.intent import LABEL_TOLERANCE_S, IntentRun, _frame_tolerance, rounded
+from lookahead.tools.scoring.intent import LABEL_TOLERANCE_S, IntentRun, frame_tolerance, rounded
 from lookahead.tools.sinks.rundir import RunDir
 
 BEHAVIOUR_GROUPS = ("pedestrian", "animal", "non_motor", "vehicle")
@@ -146,7 +146,7 @@ def behaviour_section(run: RunDir, intent_run: IntentRun) -> dict | None:
     records = run.ticks
     if not any("behaviour" in (rec.get("ground_truth") or {}) for rec in records):
         return None
-    tol = _frame_tolerance(intent_run, LABEL_TOLERANCE_S)
+    tol = frame_tolerance(intent_run, LABEL_TOLERANCE_S)
     gt_beh: dict[int, dict[int, int]] = defaultdict(dict)
     gt_risk: dict[int, dict[int, int]] = defaultdict(dict)
     gt_group: dict[int, str] = {}

@@ -200,14 +200,14 @@ def _frame_period(run: IntentRun) -> float:
     return float(np.median(np.diff(run.t))) if len(run.t) > 1 else 0.0
 
 
-def _frame_tolerance(run: IntentRun, seconds: float) -> int:
+def frame_tolerance(run: IntentRun, seconds: float) -> int:
     if len(run.t) < 2:
         return 0
     return int(round(seconds / _frame_period(run)))
 
 
 def evaluate_intent(run: IntentRun) -> dict:
-    tol = _frame_tolerance(run, LABEL_TOLERANCE_S)
+    tol = frame_tolerance(run, LABEL_TOLERANCE_S)
     n = len(SCORED_LABELS)
     conf = np.zeros((n, n), dtype=np.int64)
     index = {int(lab): i for i, lab in enumerate(SCORED_LABELS)}
