@@ -45,6 +45,15 @@ _NONE_MEANS = {"age": 0.0, "range_rate_sigma": 0.0, "settled": 1.0, "accel_x": 0
                "ground_vy_sigma": 0.0, "lateral_sigma": 0.0, "height": np.nan}
 
 
+def tracked_objects(priors: PriorTable, tracks: Tracks, est: Estimates) -> ObjectList:
+    """A stack's tracks with a finite range as an ``ObjectList`` in its frame
+    (``objects_from_estimates`` with the class priors' sizes): what a sender sends, and the
+    ego's own list before fusion."""
+    c = tracks.class_id
+    return objects_from_estimates(tracks.track_id, c, tracks.score, est, priors.of(c, "length"),
+                                  priors.of(c, "width"), priors.of(c, "length_sigma"), tracks.xyxy)
+
+
 def take(a: Assessment, rows: np.ndarray | slice) -> Assessment:
     """The assessment of ``rows`` only."""
     return Assessment(**{f.name: None if getattr(a, f.name) is None else getattr(a, f.name)[rows]
@@ -94,10 +103,7 @@ class FusionStage:
         self._messages, self._pose = list(messages), pose
 
     def own_objects(self, tracks: Tracks, est: Estimates) -> ObjectList:
-        p = self.priors
-        return objects_from_estimates(tracks.track_id, tracks.class_id, tracks.score, est,
-                                      p.of(tracks.class_id, "length"), p.of(tracks.class_id, "width"),
-                                      p.of(tracks.class_id, "length_sigma"), tracks.xyxy)
+        return tracked_objects(self.priors, tracks, est)
 
     def __call__(self, frame: Frame, tracks: Tracks, est: Estimates,
                  kin: Kinematics) -> tuple[Kinematics, np.ndarray, np.ndarray]:

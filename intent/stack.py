@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from lookahead.intent.alerts import Alert, AlertConfig, AlertManager
+from lookahead.intent.cipv import select_cipv
 from lookahead.intent.config import IntentConfig
 from lookahead.intent.cooperative import FusionStage
 from lookahead.intent.gestures import GestureRecognizer
@@ -191,8 +192,8 @@ class PerceptionStack:
     def critical_in_path(self, tracks: Tracks, est: Estimates, a: Assessment) -> tuple[bool, float]:
         """Whether a CRITICAL alert is on for an in-path track, and the nearest in-path range (m)."""
         crit = alert_in_path(self.alerts.active(), tracks.track_id.tolist(), a.in_path.tolist(), Risk.CRITICAL)
-        rng = est.range[a.in_path & np.isfinite(est.range)]
-        return crit, float(rng.min()) if len(rng) else float("inf")
+        cipv = select_cipv(tracks.track_id, est.range, a.in_path)  # the primary target's range
+        return crit, cipv.range if cipv.range is not None else float("inf")
 
 
 def alert_in_path(active: Mapping[int, int], track_ids: Sequence[int], in_path: Sequence[bool],

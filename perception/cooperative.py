@@ -32,7 +32,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from lookahead.perception.detections import CLASSES
-from lookahead.perception.geometry import rotation_2d
+from lookahead.perception.geometry import nearest_x_extent, rotation_2d
 
 GATE_CHI2 = 13.82  # chi-square, 2 dof, 0.999: the Mahalanobis gate of a match (squared)
 SYSTEMATIC_RANGE_REL = 0.05  # std of a monocular range's systematic error, relative to the range
@@ -131,23 +131,18 @@ class SharedObjects:
     pose_sigma: tuple[float, float] = (0.0, 0.0)
 
 
-def nearest_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """Half extent (m) along a frame's x axis of footprints (``length`` x ``width``) at ``rel_yaw``."""
-    return 0.5 * (np.abs(np.cos(rel_yaw)) * length + np.abs(np.sin(rel_yaw)) * width)
-
-
 def centre_offset(velocity: np.ndarray, length: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(N,) x from an object's nearest face to its centre (m) and its std (m), for footprints
     ``length`` x ``width`` (class priors) with ground ``velocity`` (N, 2) in the frame's axes.
 
     An object moving faster than ``MOVING_SPEED`` lies along its velocity: the footprint's half
-    extent at that heading (``nearest_extent``), std 0. A slower one may lie any way (a parked
+    extent at that heading (``geometry.nearest_x_extent``), std 0. A slower one may lie any way (a parked
     truck across a side street): the mean of the half width and the half length, std a
     quarter of their difference."""
     v = np.nan_to_num(np.asarray(velocity, dtype=np.float64).reshape(-1, 2))
     length, width = np.asarray(length, dtype=np.float64), np.asarray(width, dtype=np.float64)
     moving = np.hypot(v[:, 0], v[:, 1]) > MOVING_SPEED
-    along = nearest_extent(np.arctan2(v[:, 1], v[:, 0]), length, width)
+    along = nearest_x_extent(np.arctan2(v[:, 1], v[:, 0]), length, width)
     return (np.where(moving, along, 0.25 * (length + width)),
             np.where(moving, 0.0, 0.25 * np.abs(length - width)))
 
@@ -158,7 +153,7 @@ def half_width_seen(velocity: np.ndarray, length: np.ndarray, width: np.ndarray)
     v = np.nan_to_num(np.asarray(velocity, dtype=np.float64).reshape(-1, 2))
     length, width = np.asarray(length, dtype=np.float64), np.asarray(width, dtype=np.float64)
     moving = np.hypot(v[:, 0], v[:, 1]) > MOVING_SPEED
-    across = nearest_extent(np.arctan2(v[:, 1], v[:, 0]) + np.pi / 2, length, width)
+    across = nearest_x_extent(np.arctan2(v[:, 1], v[:, 0]) + np.pi / 2, length, width)
     return np.where(moving, across, 0.25 * (length + width))
 
 

@@ -29,6 +29,12 @@ def rotation_2d(angle: float) -> np.ndarray:
     return np.array([[c, -s], [s, c]])
 
 
+def nearest_x_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """Half extent (m) along a frame's x axis of footprints ``length`` x ``width`` turned by
+    ``rel_yaw`` (rad) in it: how far beyond its centre an object's nearest face lies."""
+    return 0.5 * (np.abs(np.cos(rel_yaw)) * length + np.abs(np.sin(rel_yaw)) * width)
+
+
 def box_corners(center: np.ndarray, size: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """Corners (N, 8, 3) of boxes with centers (N, 3), sizes (N, 3) and yaws (N,)."""
     center = np.asarray(center, dtype=np.float64).reshape(-1, 3)

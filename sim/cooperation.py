@@ -20,10 +20,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from lookahead.intent.config import IntentConfig
-from lookahead.intent.cooperative import FusionStage
+from lookahead.intent.cooperative import FusionStage, tracked_objects
 from lookahead.intent.stack import PerceptionStack, build_stack
 from lookahead.perception.camera import CameraModel
-from lookahead.perception.cooperative import ObjectList, SharedObjects, objects_from_estimates
+from lookahead.perception.cooperative import ObjectList, SharedObjects
 from lookahead.perception.estimator import Estimates
 from lookahead.perception.frame import EgoOdometry, Frame
 from lookahead.perception.tracker import Tracks
@@ -117,13 +117,10 @@ class Sender:
         return view
 
     def stack_objects(self, tracks: Tracks, est: Estimates, gt: GroundTruth) -> ObjectList:
-        p = self.stack.estimator.priors
-        objects = objects_from_estimates(tracks.track_id, tracks.class_id, tracks.score, est,
-                                         p.of(tracks.class_id, "length"), p.of(tracks.class_id, "width"),
-                                         p.of(tracks.class_id, "length_sigma"), tracks.xyxy)
-        truth = truth_ids(tracks.xyxy, gt, self.camera)
+        """The sender's tracks as its message's objects, each with its ground-truth actor (scoring only)."""
+        objects = tracked_objects(self.stack.estimator.priors, tracks, est)
         keep = np.isfinite(est.range) & np.isfinite(est.lateral)
-        objects.truth = truth[keep]
+        objects.truth = truth_ids(tracks.xyxy, gt, self.camera)[keep]
         return objects
 
     def close(self) -> None:

@@ -24,7 +24,14 @@ from lookahead.intent.labels import NEVER, Kinematics, assess
 from lookahead.perception.camera import CameraModel, truncation
 from lookahead.perception.detections import CLASS_ID
 from lookahead.perception.detectors.base import DetectorTruth
-from lookahead.perception.geometry import box_area, box_corners, clip_boxes, iou_matrix, mask_boxes
+from lookahead.perception.geometry import (
+    box_area,
+    box_corners,
+    clip_boxes,
+    grow_boxes,
+    iou_matrix,
+    mask_boxes,
+)
 from lookahead.sim.layout import ego_frame
 
 if TYPE_CHECKING:
@@ -326,13 +333,33 @@ def detector_truth(gt: GroundTruth, camera: CameraModel) -> DetectorTruth:
     )
 
 
-def truth_ids(xyxy: np.ndarray, gt: GroundTruth, camera: CameraModel, min_iou: float = TRUTH_IOU) -> np.ndarray:
+def truth_ids(xyxy: np.ndarray, gt: GroundTruth, camera: CameraModel, min_iou: float = TRUTH_IOU,
+              visible: bool = False, min_size: float = 0.0) -> np.ndarray:
     """(N,) the ground-truth actor of each box (a track's), -1 none: the assignment of largest
-    total IoU with the actors' in-image amodal boxes (a coasting track's box is where its hidden
-    object is), pairs under ``min_iou`` left out. For scoring only."""
+    total IoU among pairs of at least ``min_iou``, with the actors' in-image amodal boxes (a
+    coasting track's box is where its hidden object is) or, with ``visible``, their visible
+    boxes (the scorer's rule, ``tools.scoring.matching``); both sides grown to ``min_size`` px
+    first when given. For scoring only."""
     out = np.full(len(xyxy), -1, dtype=np.int64)
     if not len(xyxy) or not len(gt):
         return out
+    if visible:
+        boxes = np.asarray(gt.visible, dtype=np.float64).reshape(-1, 4)
+        seen = np.all(np.isfinite(boxes), axis=1)
+    else:
+        boxes = clip_boxes(np.nan_to_num(gt.amodal), camera.width, camera.height)
+        seen = gt.truncation < 1.0
+    a = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+    finite = np.all(np.isfinite(a), axis=1)[:, None] & seen[None, :]
+    a, boxes = np.nan_to_num(a), np.nan_to_num(boxes)
+    if min_size > 0:
+        a, boxes = grow_boxes(a, min_size), grow_boxes(boxes, min_size)
+    iou = np.where(finite, iou_matrix(a, boxes), 0.0)
+    gain = np.where(iou >= min_iou, iou, 0.0)
+    rows, cols = linear_sum_assignment(gain, maximize=True)
+    ok = gain[rows, cols] > 0
+    out[rows[ok]] = gt.actor_id[cols[ok]]
+    return out
     boxes = clip_boxes(np.nan_to_num(gt.amodal), camera.width, camera.height)
     boxes[gt.truncation >= 1.0] = 0.0
     iou = iou_matrix(np.nan_to_num(np.asarray(xyxy, dtype=np.float64)), boxes)

@@ -15,6 +15,7 @@ from highway_env.road.road import Road
 from highway_env.vehicle.behavior import IDMVehicle
 
 from lookahead.perception.frame import EgoOdometry
+from lookahead.perception.geometry import nearest_x_extent  # noqa: F401 (re-exported)
 from lookahead.sim.actors import Identity, ScriptedActor, wrap
 from lookahead.sim.ego import Collision, EgoVehicle
 from lookahead.sim.layout import ego_frame  # noqa: F401 (re-exported)
@@ -64,11 +65,6 @@ class AgentStates:
 def _pose(gait: float, arm: float, body: float):
     """A ``sim.shapes.Pose``: the bare gait phase unless the actor gestures."""
     return float(gait) if not arm and not body else (float(gait), float(arm), float(body))
-
-
-def nearest_x_extent(rel_yaw: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """Half extent (m) along the ego x axis of footprints rotated by ``rel_yaw``."""
-    return 0.5 * (np.abs(np.cos(rel_yaw)) * length + np.abs(np.sin(rel_yaw)) * width)
 
 
 def ref_to_centre(ref: str, yaw: float, length: float, width: float) -> np.ndarray:

@@ -28,6 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from lookahead.sim.birdseye import birdseye
@@ -135,8 +136,6 @@ class DriveSession:
         pic = np.zeros((h + STATUS_H, cam.shape[1] + inset.shape[1], 3), np.uint8)
         pic[:h, :cam.shape[1]] = cam
         pic[:h, cam.shape[1]:] = inset
-        import cv2
-
         ego = rec.ego
         brake = ego.get("aeb_brake")
         text = (f"t {rec.t:5.1f} s   {ego['speed'] * 3.6:5.1f} km/h   lane {self.lane}   "

@@ -46,6 +46,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from lookahead.perception.cooperative import REMOTE_ID_BASE
+from lookahead.perception.geometry import box_corners
+from lookahead.sim.layout import ego_frame
 from lookahead.tools.sinks.draw import save_rgb
 from lookahead.tools.sinks.rundir import OutputError, prepare_dir
 from lookahead.tools.sinks.video import (
@@ -57,7 +60,6 @@ from lookahead.tools.sinks.video import (
 
 log = logging.getLogger(__name__)
 
-REMOTE_ID_BASE = 1_000_000  # fused ids from here on: objects only others see (``intent.cooperative``)
 PANEL_PX_PER_M = 7.0
 PANEL_X = (-10.0, 50.0)  # m, ego frame: behind .. ahead (the design's plot range: 50 m)
 PANEL_Y = 20.0  # m each side
@@ -112,21 +114,14 @@ def rotate(xy: np.ndarray, pose: tuple[float, float, float]) -> np.ndarray:
 
 
 def to_frame(xy: np.ndarray, pose: tuple[float, float, float]) -> np.ndarray:
-    """Parent-frame points into the frame with ``pose`` (the inverse of ``rotate``)."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    d = _xy(xy) - np.asarray(pose[:2], float)
-    return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]])
+    """Parent-frame points into the frame with ``pose`` (the inverse of ``rotate``: ``sim.layout.ego_frame``)."""
+    return ego_frame(np.asarray(pose[:2], float), pose[2], _xy(xy))
 
 
 def footprints(box3d) -> np.ndarray:
-    """(N, 4, 2) ground corners of (N, 7) boxes (x, y, z, length, width, height, yaw)."""
+    """(N, 4, 2) ground corners, in order round, of (N, 7) boxes (x, y, z, length, width, height, yaw)."""
     b = np.asarray(box3d if box3d is not None else [], float).reshape(-1, 7)
-    hl, hw, yaw = b[:, 3:4] / 2, b[:, 4:5] / 2, b[:, 6:7]
-    ux, uy = np.cos(yaw), np.sin(yaw)
-    corners = []
-    for a, w in ((1, 1), (1, -1), (-1, -1), (-1, 1)):
-        corners.append(np.concatenate([b[:, 0:1] + a * hl * ux - w * hw * uy, b[:, 1:2] + a * hl * uy + w * hw * ux], 1))
-    return np.stack(corners, axis=1) if len(b) else np.zeros((0, 4, 2))
+    return box_corners(b[:, :3], b[:, 3:6], b[:, 6])[:, :4, :2]  # the bottom face
 
 
 def body(size: tuple[float, float]) -> np.ndarray:

@@ -56,7 +56,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from lookahead.intent.labels import Risk
 from lookahead.intent.narration import (
@@ -70,7 +69,8 @@ from lookahead.intent.narration import (
     said,
     template,
 )
-from lookahead.perception.geometry import grow_boxes, iou_matrix
+from lookahead.perception.cooperative import REMOTE_ID_BASE
+from lookahead.sim.groundtruth import truth_ids
 from lookahead.sim.records import TickRecord, jsonable
 from lookahead.tools.sinks.paths import OutputError
 
@@ -78,12 +78,11 @@ log = logging.getLogger(__name__)
 
 NARRATION_FILE = "narration.jsonl"
 NARRATED_KINDS = ("fcw", "critical")
-REMOTE_ID_BASE = 1_000_000  # ids of objects only other cameras see (sim.cooperation)
 #: A request with less time left before its deadline than this (s) is not sent: it could only time
 #: out (no chat model answers that fast) and would load the endpoint, e.g. a backlog behind a stall.
 MIN_REQUEST_S = 0.05
-#: The scorer's track-to-truth rule (``tools.scoring.matching``: IoU >= 0.5 of boxes grown to 8 px),
-#: repeated here because sinks may not import scoring (import contract: scoring -> sinks).
+#: The scorer's track-to-truth rule (``tools.scoring.matching``: IoU >= 0.5 of visible boxes grown to
+#: 8 px), through ``sim.groundtruth.truth_ids``; its constants here because sinks may not import scoring.
 IOU_THRESHOLD = 0.5
 MIN_MATCH_SIZE_PX = 8.0
 _REPORTED = (1, 2)  # TrackState CONFIRMED, LOST: the tracks scoring reports
@@ -262,20 +261,12 @@ def truth_actor(record: TickRecord, tid: int) -> int | None:
     if tr is None or not len(tr.track_id) or not len(gt):
         return None
     reported = np.isin(tr.state, _REPORTED)
-    tids, boxes = tr.track_id[reported], tr.xyxy[reported]
-    vis = np.asarray(gt.visible, dtype=np.float64).reshape(-1, 4)
-    ok = np.all(np.isfinite(vis), axis=1)
-    if tid not in tids.tolist() or not ok.any():
+    i = _row(tr.track_id[reported], tid)
+    if i is None:
         return None
-    a = grow_boxes(np.nan_to_num(boxes), MIN_MATCH_SIZE_PX)
-    finite = np.all(np.isfinite(boxes), axis=1)[:, None]
-    iou = np.where(finite, iou_matrix(a, grow_boxes(vis[ok], MIN_MATCH_SIZE_PX)), 0.0)
-    gain = np.where(iou >= IOU_THRESHOLD, iou, 0.0)
-    rows, cols = linear_sum_assignment(gain, maximize=True)
-    for r, c in zip(rows.tolist(), cols.tolist(), strict=True):
-        if int(tids[r]) == tid and gain[r, c] > 0:
-            return int(gt.actor_id[ok][c])
-    return None
+    actor = truth_ids(tr.xyxy[reported], gt, record.frame.camera, IOU_THRESHOLD, visible=True,
+                      min_size=MIN_MATCH_SIZE_PX)[i]
+    return int(actor) if actor >= 0 else None
 
 
 def truth_facts(record: TickRecord, actor: int | None) -> Facts | None:
