@@ -6,7 +6,8 @@ Defaults follow the seed design (pedestrian 10 m / 5 m, 3 s / 1.5 s; animal
 4 / 2 s (Euro NCAP FCW warns between about 1.7 and 2.6 s TTC). Large animals
 (deer, cattle, boar: ``large_animal_height`` and taller) are obstacles a car must
 not hit at rural speeds, with a car's mass: the vehicle thresholds; dogs keep the
-seed's animal ones.
+seed's animal ones. Static obstacles (cones, barriers, debris, boxes, riderless bicycles) are
+not in the seed either: a car's thresholds, as for anything else in the lane that does not move.
 """
 
 from __future__ import annotations
@@ -69,6 +70,7 @@ class IntentConfig(BaseModel):
             "non_motor": RiskThresholds(high_distance=15, critical_distance=8, high_ttc=4.0, critical_ttc=2.0),
             "vehicle": RiskThresholds(high_distance=10, critical_distance=5, high_ttc=4.0, critical_ttc=2.0),
             "large_animal": RiskThresholds(high_distance=10, critical_distance=5, high_ttc=4.0, critical_ttc=2.0),
+            "obstacle": RiskThresholds(high_distance=10, critical_distance=5, high_ttc=4.0, critical_ttc=2.0),
         }
     )
     behaviour: dict[str, BehaviourThresholds] = Field(
@@ -78,6 +80,7 @@ class IntentConfig(BaseModel):
             "non_motor": BehaviourThresholds(still_speed=0.5, fast_speed=7.0, cross_speed=0.8, brake_decel=3.0),
             "vehicle": BehaviourThresholds(still_speed=0.5, fast_speed=33.3, cross_speed=1.0, brake_decel=4.0),
             "large_animal": BehaviourThresholds(still_speed=0.2, fast_speed=3.0, cross_speed=0.3),
+            "obstacle": BehaviourThresholds(still_speed=0.5, fast_speed=33.3, cross_speed=1.0),
         }
     )
     large_animal_height: float = Field(

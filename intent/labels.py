@@ -160,8 +160,9 @@ GROUP_OF_CLASS = {
     "car": "vehicle",
     "truck": "vehicle",
     "bus": "vehicle",
+    "obstacle": "obstacle",
 }
-GROUPS = ("pedestrian", "animal", "non_motor", "vehicle", "large_animal")
+GROUPS = ("pedestrian", "animal", "non_motor", "vehicle", "large_animal", "obstacle")
 _GROUP_INDEX = np.full(len(CLASS_ID) + 1, GROUPS.index("vehicle"), dtype=np.int64)
 for _name, _cid in CLASS_ID.items():
     _GROUP_INDEX[_cid] = GROUPS.index(GROUP_OF_CLASS[_name])
@@ -337,7 +338,7 @@ def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = No
 
     ped = g == GROUPS.index("pedestrian")
     ani = (g == GROUPS.index("animal")) | (g == GROUPS.index("large_animal"))
-    wheeled = ~(ped | ani)
+    wheeled = ~(ped | ani | (g == GROUPS.index("obstacle")))
     out = np.full(len(g), int(Behaviour.UNKNOWN))
     # pedestrians
     out = np.where(ped, np.where(~moving, Behaviour.STANDING, np.where(speed >= fast, Behaviour.RUNNING, Behaviour.WALKING)), out)
@@ -345,6 +346,9 @@ def behaviours(k: Kinematics, config: IntentConfig, thresholds: dict | None = No
     # animals
     out = np.where(ani, np.where(~moving, Behaviour.STATIONARY, np.where(speed >= fast, Behaviour.RUNNING, Behaviour.MOVING)), out)
     out = np.where(ani & moving & crossing, Behaviour.ENTERING_ROAD, out)
+    # static obstacles do not move: any motion estimated is error
+    obs = g == GROUPS.index("obstacle")
+    out = np.where(obs, Behaviour.STATIONARY, out)
     # non-motorised and vehicles, lowest priority first
     wb = np.where(~moving, Behaviour.STOPPED, np.where(speed > fast, Behaviour.SPEEDING, Behaviour.MOVING))
     wb = np.where(moving & crossing, Behaviour.CROSSING, wb)
@@ -448,10 +452,12 @@ def behaviour_confidence(k: Kinematics, config: IntentConfig, thresholds: dict |
 
     ped = g == GROUPS.index("pedestrian")
     ani = (g == GROUPS.index("animal")) | (g == GROUPS.index("large_animal"))
+    obs = g == GROUPS.index("obstacle")
     chains = (
         (ped, (crossing, ~moving, ped_fast, always)),
         (ani, (crossing, ~moving, ped_fast, always)),
-        (~(ped | ani), (brake, turn, wrong, crossing, ~moving, speeding, always)),
+        (~(ped | ani | obs), (brake, turn, wrong, crossing, ~moving, speeding, always)),
+        (obs, (always,)),
     )
     z = np.full(n, np.inf)
     for rows, chain in chains:

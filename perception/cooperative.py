@@ -43,7 +43,7 @@ REMOTE_ID_BASE = 1_000_000  # fused ids of objects only others see start here (t
 #: a motorcyclist): ``match`` pairs only within a group.
 CLASS_GROUP: dict[str, str] = {
     "pedestrian": "person", "cyclist": "rider", "motorcyclist": "rider", "tricycle": "rider",
-    "car": "vehicle", "truck": "vehicle", "bus": "vehicle", "animal": "animal",
+    "car": "vehicle", "truck": "vehicle", "bus": "vehicle", "animal": "animal", "obstacle": "obstacle",
 }
 _BIG = 1e12  # stands in for +inf inside linear_sum_assignment
 

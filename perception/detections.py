@@ -20,6 +20,7 @@ CLASSES: tuple[str, ...] = (
     "truck",
     "bus",
     "animal",
+    "obstacle",  # static: cone, barrier, debris, box, riderless bicycle
 )
 CLASS_ID: dict[str, int] = {name: i for i, name in enumerate(CLASSES)}
 

@@ -50,14 +50,21 @@ class ClassPrior(BaseModel):
     width_cue: bool = Field(
         False, description="rigid body whose box width is its width when seen end-on: a range cue (vehicles)"
     )
+    height_modes: list[tuple[float, float, float]] = Field(
+        default_factory=list,
+        description="the height as a mixture, [weight, mean, std] per mode (m; pedestrians: adults and children), "
+        "for a track's learned height; empty: height +- height_sigma",
+    )
 
 
 def _default_priors() -> dict[str, ClassPrior]:
     p = ClassPrior
     return {
-        # 1.60 +- 0.25: adults (1.70 +- 0.10) and children together.
+        # 1.60 +- 0.25: adults (1.70 +- 0.10) and children (1.20 +- 0.15, one in five) together; a
+        # track's learned height tells the two apart (``height_modes``)
         "pedestrian": p(height=1.60, height_sigma=0.25, width=0.55, width_sigma=0.15, accel_sigma=1.5, jerk_sigma=4.0,
-                        contact_height_sigma=0.1, speed_sigma=1.5, length=0.3, length_sigma=0.1),
+                        contact_height_sigma=0.1, speed_sigma=1.5, length=0.3, length_sigma=0.1,
+                        height_modes=[(0.8, 1.70, 0.10), (0.2, 1.20, 0.15)]),
         "cyclist": p(height=1.75, height_sigma=0.15, width=0.65, width_sigma=0.2, accel_sigma=2.0, jerk_sigma=5.0,
                      contact_offset=0.3, contact_offset_side=0.25, clearance=0.3, contact_height_sigma=0.05,
                      speed_sigma=5.0, length=1.7, length_sigma=0.2),
@@ -80,6 +87,9 @@ def _default_priors() -> dict[str, ClassPrior]:
         "animal": p(height=0.90, height_sigma=0.45, width=0.50, width_sigma=0.30, accel_sigma=3.0, jerk_sigma=6.0,
                     contact_offset=0.1, contact_offset_side=0.05, clearance=0.3, contact_height_sigma=0.05,
                     speed_sigma=3.0, length=0.8, length_sigma=0.5),
+        # cones 0.7 m, barriers 0.9-1 m, boxes and debris 0.2-0.6 m, a standing bicycle 1.05 m; they do not move
+        "obstacle": p(height=0.75, height_sigma=0.3, width=1.0, width_sigma=0.6, accel_sigma=0.3, jerk_sigma=0.5,
+                      speed_sigma=0.3, length=0.8, length_sigma=0.5),
     }
 
 
@@ -156,6 +166,9 @@ class EstimatorConfig(BaseModel):
     settle_updates: int = Field(5, ge=1, description="updates before velocity enters the history")
     min_speed_accel: float = Field(0.5, ge=0, description="accel is NaN below this ground speed (m/s)")
     min_speed_yaw: float = Field(1.0, ge=0, description="yaw rate is NaN below this ground speed (m/s)")
+    derivative_min_sigmas: float = Field(
+        2.0, ge=0, description="accel / yaw rate are NaN (unknown) unless at least this many of their stds "
+        "from 0: a converging or noisy velocity's slope is no acceleration, nor its heading's a turn (0: off)")
     settle_range_rate_sigma: float = Field(
         1.0, ge=0, description="a track's range rate has converged once its std is below this (m/s) ..."
     )
@@ -165,6 +178,9 @@ class EstimatorConfig(BaseModel):
     settle_range_rate_rel: float = Field(
         0.25, ge=0, description="... or below this fraction of |range rate| (latched per filter)"
     )
+    range_learned_height: bool = Field(
+        False, description="range a track's boxes with its learned height (and std) instead of the class prior "
+        "once it has height evidence (off: measured worse on the shipped scenarios, see perception.estimator)")
 
 
 
@@ -178,7 +194,17 @@ class PriorTable:
 
     def __init__(self, config: EstimatorConfig) -> None:
         table = [config.priors.get(name, config.default_prior) for name in CLASSES] + [config.default_prior]
-        self._arrays = {key: np.array([getattr(p, key) for p in table]) for key in ClassPrior.model_fields}
+        self._arrays = {
+            key: np.array([getattr(p, key) for p in table]) for key in ClassPrior.model_fields if key != "height_modes"
+        }
+        #: per class id (the last: ``default_prior``): [(weight, mean, std)] of the height's modes
+        self.height_modes = [list(p.height_modes) or [(1.0, p.height, p.height_sigma)] for p in table]
+
+    def modes_of(self, class_id: int) -> list[tuple[float, float, float]]:
+        """The height's modes (weight, mean, std) of one class id (``ClassPrior.height_modes``; a
+        single mode height +- height_sigma when it has none)."""
+        cid = int(class_id)
+        return self.height_modes[cid if 0 <= cid < len(CLASSES) else len(CLASSES)]
 
     def of(self, class_id: np.ndarray, key: str) -> np.ndarray:
         """The prior ``key`` (a ``ClassPrior`` field) of each class id (same shape as ``class_id``)."""

@@ -36,6 +36,12 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
    and top project to rows y2 and y1 obeys H = (x - m_x) (s(y1) - s(y2)), so
    x_h = m_x + H / ds -- the exact, pitch-aware form of r_cam ~ f_y H / h_px.
    sigma_h^2 = (x_c sigma_H / H)^2 + (x_c sigma_ds / ds)^2, x_c = x_h - m_x.
+   ``measure(height=, height_sigma=)`` replaces the class prior by an object's own
+   height where known (a track's learned height, ``perception.estimator``), here
+   and in steps 4 and 6. Each box with both cues also gives the height evidence
+   ``height_ground`` = (x_g at the face - m_x) ds, relative std ``height_rel_sigma``
+   from the box's noise only (not ``contact_height_sigma``: a contact's height is
+   one object's, the same every frame).
    Width prior W +- sigma_W (classes with ``width_cue``: cars, trucks, buses).
    A vehicle seen end-on (|cos psi| >= ``width_cue_min_cos``, psi as in step
    6) whose end face spans the camera's column (t_r < 0 < t_l, t = d_y/d_x of
@@ -63,6 +69,9 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
    x <= m_x + (H + 2 sigma_H) / ds_visible). The estimate is the mean and
    std of N(x_t, sigma_t^2) truncated to [min(0, U), U] (uniform on it when
    x_t is undefined, e.g. H <= m_z). Cut at both ends: the uniform only.
+   (``perception.estimator`` runs a filter on such a box's bearing only,
+   bounded by x_max and by the visible point being in front of the camera:
+   ``Measurement.bearing_depth``.)
 5. Lateral: the bottom-centre ray at the fused contact x, y = m_y + (x - m_x) d_y/d_x;
    the rays through the two bottom corners give the y extent and half_width.
    A box cut at the left / right image edge: the visible edge plus the class
@@ -140,12 +149,22 @@ class Measurement:
     of (x, lateral). ``x_max``: upper bound of the range of boxes cut at the
     bottom (NaN otherwise). ``side_bound``: cut at a side with a footprint extending
     ``side_cut_min_extent`` or more along x: ``x`` is the visible part's face, an upper
-    bound, with ``sigma`` widened by the extent's uniform std (module docstring, step 7). The lateral as a function of the range: lateral = m_y + (x - m_x)
+    bound, with ``sigma`` widened by the extent's uniform std (module docstring, step 7).
+    ``height_ground``: the height the ground cue gives the box's top, at its nearest face, (x_g_face -
+    m_x) ``height_slope`` (NaN without a ground cue or a height); ``height_rel_sigma``: its
+    relative std from the box's noise only (the ground cue's without the contact height's part, and the box height's):
+    white from frame to frame, where a contact's height above the road is one object's, the same
+    every frame (``perception.estimator`` learns it with the height). The lateral as a function of the range: lateral = m_y + (x - m_x)
     ``tan_y`` + ``lateral_offset`` (``tan_y`` the bearing of the edge or ray it comes from,
     ``lateral_offset`` 0 or a half-width prior); ``sigma_bearing`` the bearing's std (rad);
     ``var_y_extra``: lateral variance not due to x or bearing (m^2). ``height_slope``:
     s(y1) - s(y2) of a box cut neither at the top nor at the bottom (NaN otherwise), so
-    an object whose face is at x stands (x - m_x) ``height_slope`` m tall.
+    an object whose face is at x stands (x - m_x) ``height_slope`` m tall. ``bearing_depth``: how
+    far behind the face (m, along x) the point whose bearing ``tan_y`` is lies -- the far end's
+    inner corner, L, of a vehicle seen end-on whose box is cut on the side it lies on (step 5);
+    0 otherwise. That point is in view, so in front of the camera: the face is at least
+    x > m_x + ``MIN_DEPTH`` - ``bearing_depth`` (``perception.estimator`` bounds a box cut at the
+    bottom by it).
     """
 
     x: np.ndarray
@@ -168,6 +187,9 @@ class Measurement:
     var_y_extra: np.ndarray
     lateral_offset: np.ndarray
     height_slope: np.ndarray
+    bearing_depth: np.ndarray
+    height_ground: np.ndarray
+    height_rel_sigma: np.ndarray
 
     @property
     def valid(self) -> np.ndarray:
@@ -192,28 +214,37 @@ class BoxRanger:
         self.priors = PriorTable(self.config) if priors is None else priors
 
     def measure(
-        self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None
+        self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None,
+        height: np.ndarray | None = None, height_sigma: np.ndarray | None = None,
     ) -> Measurement:
         """Position measurements (module docstring, steps 1-7) of boxes (N, 4) with classes (N,).
 
         ``cos_heading``: |cos| of each object's heading relative to the ego x axis
         (1 = seen end-on, the default; 0 = side-on), for the contact offset.
+        ``height`` / ``height_sigma`` (N,): each object's height and its std (m) where known --
+        a track's learned height (``perception.estimator``) --, in place of the class prior
+        (step 2, 4 and 6); NaN or None: the class prior.
         """
         b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
         n = len(b)
         cid = np.broadcast_to(np.asarray(class_id, dtype=np.int64).reshape(-1), (n,))
         c = np.ones(n) if cos_heading is None else np.broadcast_to(np.asarray(cos_heading, float).reshape(-1), (n,))
+        H, sH = self.priors.of(cid, "height").astype(float), self.priors.of(cid, "height_sigma").astype(float)
+        if height is not None and height_sigma is not None:
+            h = np.broadcast_to(np.asarray(height, float).reshape(-1), (n,))
+            sh = np.broadcast_to(np.asarray(height_sigma, float).reshape(-1), (n,))
+            known = np.isfinite(h) & np.isfinite(sh) & (h > 0) & (sh > 0)
+            H, sH = np.where(known, h, H), np.where(known, sh, sH)
         with np.errstate(all="ignore"):
-            return self._measure(b, cid, np.clip(np.nan_to_num(c, nan=1.0), 0.0, 1.0))
+            return self._measure(b, cid, np.clip(np.nan_to_num(c, nan=1.0), 0.0, 1.0), H, sH)
 
-    def _measure(self, b: np.ndarray, cid: np.ndarray, cos_h: np.ndarray) -> Measurement:
+    def _measure(self, b: np.ndarray, cid: np.ndarray, cos_h: np.ndarray, H: np.ndarray, sH: np.ndarray) -> Measurement:
         cfg, cam = self.config, self.camera
         n = len(b)
         mx, my, mz = cam.mount
         x1, y1, x2, y2 = b.T
         w_px, h_px = x2 - x1, y2 - y1
         ok = np.all(np.isfinite(b), axis=1) & (w_px > 0) & (h_px > 0) & np.all(np.abs(b) < 1e6, axis=1)
-        H, sH = self.priors.of(cid, "height"), self.priors.of(cid, "height_sigma")
         W, sW = self.priors.of(cid, "width"), self.priors.of(cid, "width_sigma")
         # a side or bottom edge within its noise of the image border may be the border: cut there
         # (not the top edge: a box cut at both ends keeps no range cue but the bound)
@@ -253,6 +284,7 @@ class BoxRanger:
         xg_all = gp[:, 0, 0]
         dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)
+        sig_g_px = np.where(ok & ~cut_bottom, sig_g, np.nan)  # the box's noise only, no contact height
         sig_g = np.hypot(sig_g, (xg_all - mx) * self.priors.of(cid, "contact_height_sigma") / mz)
         g_ok = ok & ~cut_bottom & np.isfinite(xg_all) & np.isfinite(sig_g) & (xg_all - mx > MIN_DEPTH)
         x_g = np.where(g_ok, xg_all, np.nan)
@@ -339,6 +371,7 @@ class BoxRanger:
         s_bear = su / cam.fx
         extra = np.where(side, (0.5 * sW) ** 2, 0.0)
         offset = np.zeros(n)
+        deep = np.zeros(n)
 
         # 6. the range is the nearest face's (boxes cut at the bottom: the top ray's estimate)
         x = np.where(cut_bottom | ~front, x, x_face)
@@ -348,8 +381,9 @@ class BoxRanger:
         end_on = w_cue & (cos_h >= cfg.width_cue_min_cos) & (xc > MIN_DEPTH) & ~(cut_left & cut_right)
         if np.any(end_on):
             e = self._end_on_lateral(xc, t_l, t_r, cut_left, cut_right, W, sW, cid, w_px, s_bear)
-            lat, hw, tan_eff, offset, s_bear, extra = (
-                np.where(end_on, a, b) for a, b in zip(e, (lat, hw, tan_eff, offset, s_bear, extra), strict=True)
+            lat, hw, tan_eff, offset, s_bear, extra, deep = (
+                np.where(end_on, a, b)
+                for a, b in zip(e, (lat, hw, tan_eff, offset, s_bear, extra, deep), strict=True)
             )
             lat = np.where(np.isfinite(x), lat, np.nan)
 
@@ -387,6 +421,9 @@ class BoxRanger:
             var_y_extra=extra,
             lateral_offset=np.where(np.isfinite(lat), offset, np.nan),
             height_slope=np.where(ok & ~cut_top & ~cut_bottom & (ds > 0), ds, np.nan),
+            bearing_depth=deep,
+            height_ground=np.where(g_ok & h_ok, (xg_f - mx) * ds, np.nan),
+            height_rel_sigma=np.where(g_ok & h_ok, np.hypot(sig_g_px / (xg_f - mx), sig_ds / ds), np.nan),
         )
 
     def _end_on_lateral(
@@ -404,7 +441,7 @@ class BoxRanger:
     ) -> tuple[np.ndarray, ...]:
         """Lateral of vehicles seen end-on: footprint W x L behind the face at depth ``xf`` (step 5b).
 
-        Returns (lateral, half_width, tan_y, lateral_offset, sigma_bearing, var_y_extra);
+        Returns (lateral, half_width, tan_y, lateral_offset, sigma_bearing, var_y_extra, bearing_depth);
         lateral = m_y + xf tan_y + lateral_offset.
         """
         cfg, my = self.config, self.camera.mount[1]
@@ -419,6 +456,7 @@ class BoxRanger:
         hw = np.where(span, 0.5 * xf * (t_l - t_r), 0.5 * W)
         s_bear = np.where(span, s_bear_c, s_edge)
         extra = np.where(span, 0.0, (0.5 * sW) ** 2)
+        deep = np.zeros(len(xf))
         # the outer edge is the end face's outer corner: -/+ W/2 from it (also a box cut on
         # the far side whose visible edge is then the outer one)
         for m, t_e, sgn in ((whole & left_of, t_l, -1.0), (whole & right_of, t_r, 1.0),
@@ -429,9 +467,10 @@ class BoxRanger:
         for m, t_e, sgn in ((cut_left & ~cut_right & left_of, t_r, 1.0),
                             (cut_right & ~cut_left & right_of, t_l, -1.0)):  # fmt: skip
             tan, off = np.where(m, t_e, tan), np.where(m, sgn * 0.5 * W + L * t_e, off)
+            deep = np.where(m, L, deep)
             # the far corner's bearing error reaches the lateral over xf + L, not xf: add the L part
             extra = np.where(m, (0.5 * sW) ** 2 + (sL * t_e) ** 2 + (L * s_edge) ** 2, extra)
-        return my + xf * tan + off, hw, tan, off, s_bear, extra
+        return my + xf * tan + off, hw, tan, off, s_bear, extra, deep
 
     def _faces(
         self, x_g: np.ndarray, x_h: np.ndarray, cid: np.ndarray, cos_h: np.ndarray, H: np.ndarray

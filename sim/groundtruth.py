@@ -42,7 +42,6 @@ Silhouettes = Callable[[list[int], tuple[int, int, int, int]], np.ndarray]
 
 GROUND_LEVEL = 0.85  # depth / flat-ground depth above which a pixel is ground level (~0.2 m high for a camera at 1.4 m)
 GT_MAX_RANGE = 200.0  # m; actors farther than this (or > 10 m behind) are left out
-OBSTACLE_CLASS_ID = -1  # static obstacles are not a detection class
 TRUTH_IOU = 0.3  # least IoU of a track's box with an actor's for ``truth_ids``
 
 
@@ -54,7 +53,7 @@ class GroundTruth:
     name: list[str]
     cls: list[str]
     subtype: list[str]
-    class_id: np.ndarray  # (N,) int, -1 for obstacles
+    class_id: np.ndarray  # (N,) int, perception.detections.CLASS_ID
     box3d: np.ndarray  # (N, 7) x, y, z (centre), length, width, height, yaw (ego frame)
     velocity: np.ndarray  # (N, 2) ground velocity in ego axes (m/s)
     amodal: np.ndarray  # (N, 4) xyxy, union of the projected part boxes (full silhouette), unclipped
@@ -270,9 +269,9 @@ def world_truth(world: World, camera: CameraModel, config: IntentConfig,
     vis_frac[trunc >= 1.0] = 0.0
 
     cls = [a.identity.cls for a in agents]
-    class_id = np.array([CLASS_ID.get(k, OBSTACLE_CLASS_ID) for k in cls], dtype=np.int64)
+    class_id = np.array([CLASS_ID[k] for k in cls], dtype=np.int64)
     kin = Kinematics(
-        class_id=np.where(class_id < 0, CLASS_ID["car"], class_id),
+        class_id=class_id,
         range=rng,
         lateral=centre[:, 1],
         half_width=half_w,

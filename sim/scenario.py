@@ -45,7 +45,7 @@ from lookahead.sim.driver import DriverConfig
 from lookahead.sim.link import LinkConfig
 from lookahead.sim.shapes import SUBTYPES
 
-ACTOR_TYPES: tuple[str, ...] = (*CLASSES, "obstacle")
+ACTOR_TYPES: tuple[str, ...] = CLASSES
 
 # Physical bounds of a scenario's numbers (no NaN or infinity anywhere: ``Strict`` refuses them).
 MAX_ROAD_M = 20_000.0  # the longest road (m); longitudinal positions stay within it

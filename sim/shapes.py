@@ -33,7 +33,7 @@ SUBTYPES: dict[str, tuple[str, ...]] = {
     "truck": ("truck",),
     "bus": ("bus",),
     "animal": ("dog", "deer", "cow"),
-    "obstacle": ("barrier", "cone", "box"),
+    "obstacle": ("barrier", "cone", "box", "debris", "bicycle"),
 }
 
 Vec3 = tuple[float, float, float]
@@ -450,8 +450,8 @@ def _pedestrian(rng: np.random.Generator, subtype: str) -> ActorShape:
     return b.shape("pedestrian", subtype, stride)
 
 
-def _bicycle(rng: np.random.Generator) -> ActorShape:
-    b = _Builder()
+def _bicycle_frame(b: _Builder, rng: np.random.Generator) -> tuple[float, tuple, tuple, tuple]:
+    """A bicycle's wheels and frame; (wheel radius, seat, head, bottom bracket) in (x, z) m."""
     frame = _pick(
         rng, [(0.8, 0.1, 0.1), (0.1, 0.3, 0.8), (0.1, 0.1, 0.1), (0.9, 0.9, 0.9), (0.2, 0.6, 0.3)]
     )
@@ -471,6 +471,12 @@ def _bicycle(rng: np.random.Generator) -> ActorShape:
     b.limb((xr, r), bb, 0.0, t, frame, square=True)  # chain stay
     b.box((head[0], 0.0, head[1] + 0.12), (0.03, 0.28, 0.02), _TYRE)  # handlebar
     b.box((seat[0], 0.0, seat[1] + 0.03), (0.12, 0.07, 0.03), _TYRE)  # saddle
+    return r, seat, head, bb
+
+
+def _bicycle(rng: np.random.Generator) -> ActorShape:
+    b = _Builder()
+    r, seat, head, bb = _bicycle_frame(b, rng)
     _rider(b, rng, (seat[0], seat[1] + 0.08), (head[0] - 0.02, head[1] + 0.12), (bb[0], bb[1] + 0.02),
            lean=rng.uniform(0.25, 0.45), pedal=True)  # fmt: skip
     return b.shape("cyclist", "bicycle", 2.0 * np.pi * r * 2.2)
@@ -791,7 +797,17 @@ def _obstacle(rng: np.random.Generator, subtype: str) -> ActorShape:
                 (seg / 2, 0.03, 0.08),
                 white if k % 2 == 0 else red,
             )
-    else:  # debris box
+    elif subtype == "debris":  # a lost tyre and broken pieces of load
+        tr = rng.uniform(0.3, 0.4)
+        b.cyl((rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), 0.1), tr, 0.1, _TYRE)
+        for _ in range(int(rng.integers(2, 5))):
+            h = rng.uniform(0.08, 0.3, 3) * np.array([1.0, 1.0, 0.7])
+            col = _pick(rng, [(0.45, 0.45, 0.45), (0.55, 0.4, 0.25), (0.25, 0.25, 0.28), (0.7, 0.7, 0.65)])
+            b.box((rng.uniform(-0.8, 0.8), rng.uniform(-0.6, 0.6), h[2]), tuple(h), col,
+                  tilt=rng.uniform(-0.3, 0.3))
+    elif subtype == "bicycle":  # riderless, standing where it was left
+        _bicycle_frame(b, rng)
+    else:  # box
         sx, sy, sz = rng.uniform(0.3, 0.8, 3) * np.array([1.0, 1.0, 0.8])
         col = _pick(rng, [(0.6, 0.45, 0.28), (0.4, 0.4, 0.4), (0.2, 0.2, 0.25), (0.7, 0.6, 0.4)])
         b.box((0.0, 0.0, sz / 2), (sx / 2, sy / 2, sz / 2), col)

@@ -382,6 +382,23 @@ def run_scenario(
     return summary.to_dict()
 
 
+#: The narration options of ``run`` and ``watch`` (``narration_config`` turns them into a config).
+NarrateFlag = Annotated[bool, typer.Option(
+    "--narrate", help="one sentence per alert (English and Chinese, from templates) into RUN_DIR/narration.jsonl",
+)]
+NarrateUrl = Annotated[str | None, typer.Option(
+    "--narrate-url", help="OpenAI-compatible chat endpoint for the sentences, e.g. http://127.0.0.1:8000/v1 "
+                          "(implies --narrate; the template when it is slow, down or wrong)",
+)]
+NarrateModel = Annotated[str | None, typer.Option("--narrate-model", help="model name at --narrate-url")]
+NarrateTimeout = Annotated[float, typer.Option(
+    "--narrate-timeout", min=0.01, max=60.0, help="seconds from the alert to the endpoint's answer",
+)]
+NarrateKeyEnv = Annotated[str | None, typer.Option(
+    "--narrate-key-env", help="environment variable holding the endpoint's API key (sent as a bearer token)",
+)]
+
+
 def narration_config(narrate: bool, url: str | None, model: str | None, timeout: float, key_env: str | None):
     """The ``NarrationConfig`` of ``run``'s narration options, None when narration is off; a
     malformed URL, a URL without a model (or a model or key without a URL), an unset key variable
@@ -431,20 +448,11 @@ def run(
                              "RUN_DIR/cooperative.mp4; its key frame's PNGs go to RUN_DIR/cooperative/ (scenarios "
                              "with a `cooperative:` section only)",
     )] = None,
-    narrate: Annotated[bool, typer.Option(
-        "--narrate", help="one sentence per alert (English and Chinese, from templates) into RUN_DIR/narration.jsonl",
-    )] = False,
-    narrate_url: Annotated[str | None, typer.Option(
-        "--narrate-url", help="OpenAI-compatible chat endpoint for the sentences, e.g. http://127.0.0.1:8000/v1 "
-                              "(implies --narrate; the template when it is slow, down or wrong)",
-    )] = None,
-    narrate_model: Annotated[str | None, typer.Option("--narrate-model", help="model name at --narrate-url")] = None,
-    narrate_timeout: Annotated[float, typer.Option(
-        "--narrate-timeout", min=0.01, max=60.0, help="seconds from the alert to the endpoint's answer",
-    )] = 2.0,
-    narrate_key_env: Annotated[str | None, typer.Option(
-        "--narrate-key-env", help="environment variable holding the endpoint's API key (sent as a bearer token)",
-    )] = None,
+    narrate: NarrateFlag = False,
+    narrate_url: NarrateUrl = None,
+    narrate_model: NarrateModel = None,
+    narrate_timeout: NarrateTimeout = 2.0,
+    narrate_key_env: NarrateKeyEnv = None,
 ) -> None:
     """Run a scenario in closed loop and write its run directory."""
     if sqlite and db is None:
@@ -540,6 +548,11 @@ def watch(
     rerun_file: Annotated[Path | None, typer.Option("--rerun", help="rerun .rrd recording (e.g. RUN_DIR/run.rrd)")] = None,
     rerun_live: Annotated[bool, typer.Option("--rerun-live", help="stream to a live rerun viewer (spawned)")] = False,
     report: Annotated[bool, typer.Option("--report/--no-report", help="write RUN_DIR/report.html at the end")] = True,
+    narrate: NarrateFlag = False,
+    narrate_url: NarrateUrl = None,
+    narrate_model: NarrateModel = None,
+    narrate_timeout: NarrateTimeout = 2.0,
+    narrate_key_env: NarrateKeyEnv = None,
 ) -> None:
     """Run the perception stack on real video (file, folder, camera, stream); Ctrl-C or SIGTERM ends it
     cleanly. A live status line shows frames, rate, latency, dropped frames, alerts and reconnects."""
@@ -550,6 +563,7 @@ def watch(
 
     if fov != 90.0 and calibration is not None:
         raise typer.BadParameter("--fov applies only without --calibration")
+    narration = narration_config(narrate, narrate_url, narrate_model, narrate_timeout, narrate_key_env)
     import cv2
 
     if "OPENCV_LOG_LEVEL" not in os.environ:  # OpenCV's own warning on every failed reopen of a dropped stream
@@ -567,6 +581,7 @@ def watch(
                              reconnect=ReconnectPolicy(initial_s=min(0.5, reconnect_max_wait), max_s=reconnect_max_wait,
                                                        max_attempts=reconnect_attempts),
                              rerun_file=rerun_file, rerun_live=rerun_live, detector=detector, stack=stack,
+                             narration=narration,
                              progress=lambda st: prog.update(task, description=_watch_status(st)))
         finally:
             for h, old in zip(handlers, streams, strict=True):

@@ -27,7 +27,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from lookahead.perception.detections import CLASS_ID, CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
 
-#: Classes a detector plausibly confuses each class with (picked uniformly).
+#: Classes a detector plausibly confuses each class with (picked uniformly; none: never swapped).
 CONFUSABLE: dict[str, tuple[str, ...]] = {
     "pedestrian": ("cyclist",),
     "cyclist": ("pedestrian", "motorcyclist"),
@@ -37,6 +37,7 @@ CONFUSABLE: dict[str, tuple[str, ...]] = {
     "truck": ("car", "bus"),
     "bus": ("truck",),
     "animal": ("pedestrian",),
+    "obstacle": (),  # a cone is not mistaken for a road user (it may still be missed)
 }
 
 #: Typical width / height of each class's 2D box, for false positives.
@@ -49,6 +50,7 @@ _ASPECT = {
     "truck": 1.1,
     "bus": 1.2,
     "animal": 1.3,
+    "obstacle": 1.5,
 }
 
 
@@ -194,6 +196,7 @@ class GtNoiseDetector:
         cls = truth.class_id[ok].copy()
         valid = (cls >= 0) & (cls < len(CLASSES))
         swap = valid & (u_conf[ok] < cfg.class_confusion)
+        swap[swap] = CONFUSION_COUNT[cls[swap]] > 0
         if np.any(swap):
             c = cls[swap]
             pick = np.minimum(

@@ -114,6 +114,11 @@ NAME_ALIASES: dict[str, str] = {
     "cattle": "animal",
     "deer": "animal",
     "bear": "animal",
+    "traffic cone": "obstacle",
+    "cone": "obstacle",
+    "barrier": "obstacle",
+    "road barrier": "obstacle",
+    "debris": "obstacle",
 }
 
 #: Providers in order of preference; CPU is always the last resort.

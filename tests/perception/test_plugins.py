@@ -12,7 +12,7 @@ import pytest
 
 from lookahead.intent.stack import build_detector
 from lookahead.perception.config import DetectorSpec, PerceptionSpec
-from lookahead.perception.detections import Detections
+from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import Detector, DetectorTruth
 from lookahead.perception.plugins import (
     DETECTOR_GROUP,
@@ -196,7 +196,7 @@ def _exc(det: PluginDetector) -> PluginError:
         ("nan", "NaN or infinite"),
         ("shape", "xyxy of shape (1, 5), expected (N, 4)"),
         ("score", "scores outside [0, 1]"),
-        ("class", "class ids outside 0..7"),
+        ("class", f"class ids outside 0..{len(CLASSES) - 1}"),
         ("dtype", "class_id of dtype float64, expected integer"),
         ("list", "Detections.score of type list, expected a numpy array"),
         ("tuple", "returned tuple, expected perception.detections.Detections"),

@@ -24,7 +24,7 @@ def variant(name: str, speed: float, aeb: bool) -> Scenario:
     return sc
 
 
-@pytest.mark.parametrize("name", ["stationary_car", "ped_crossing_nearside"])
+@pytest.mark.parametrize("name", ["stationary_car", "ped_crossing_nearside", "barrier_in_lane"])
 @pytest.mark.parametrize("kmh", [30, 40])
 def test_aeb_avoids_what_happens_without_it(name, kmh):
     speed = kmh / 3.6

@@ -111,6 +111,8 @@ SIZES = {  # (length range, width range, height range), metres
     ("obstacle", "barrier"): ((1.4, 2.7), (0.3, 0.8), (0.7, 1.1)),
     ("obstacle", "cone"): ((0.3, 0.55), (0.3, 0.55), (0.5, 0.85)),
     ("obstacle", "box"): ((0.2, 0.9), (0.2, 0.9), (0.15, 0.8)),
+    ("obstacle", "debris"): ((1.0, 2.6), (0.7, 2.0), (0.15, 0.7)),
+    ("obstacle", "bicycle"): ((1.5, 1.8), (0.5, 0.6), (0.95, 1.1)),
 }
 
 

@@ -3,8 +3,8 @@
 A generator file (YAML, see ``scenarios/generators/detector.yaml``) names seed
 ranges per split and the ranges every random draw comes from; scene ``seed`` is
 expanded by ``generate_scenario(spec, seed)`` into a full, validated
+expanded by ``generate_scenario(spec, seed)`` into a full, validated
 ``Scenario`` -- road, traffic, ego, camera mount, weather and 3-10 actors of the
-eight detection classes (plus obstacles and parked cars that occlude). Splits are
 disjoint seed ranges, so train, validation and test never share a scene, and a
 scene is the same whatever split list or worker count produced it.
 
@@ -88,7 +88,7 @@ MAX_ACTORS = 100
 class ActorRandom(Strict):
     count: _span(0, MAX_ACTORS, kind=int) = Field((3, 10), description="actors per scene [min, max]")
     x: _span(0.0, 2000.0) = Field((3.0, 90.0), description="ego-relative start x (m)")
-    #: relative weights of the actor classes drawn (obstacles are distractors, not labelled)
+    #: relative weights of the actor classes drawn
     mix: dict[str, float] = Field(
         default_factory=lambda: {
             "pedestrian": 3.0, "cyclist": 1.5, "motorcyclist": 1.5, "tricycle": 1.0,

@@ -19,8 +19,12 @@ fine-tuning starts at the trained model and grows into the new width (Net2Net's
 function-preserving growth, with zero instead of split fan-out; its deeper growth with
 zero-scaled residual blocks).
 
-``architecture(shapes)`` reads a network's widths and blocks back from its weights' shapes,
-so ``--init`` can take a checkpoint or an exported model of any size.
+More classes: the heat head's rows of new classes are ``dst``'s fresh ones (bias at the
+focal-loss prior), so a model of the eight road-user classes starts a nine-class one
+(``obstacle`` added) that finds everything it found and nothing of the new class yet.
+
+``architecture(shapes)`` reads a network's widths, blocks and class count back from its
+weights' shapes, so ``--init`` can take a checkpoint or an exported model of any size.
 """
 
 from __future__ import annotations
@@ -40,7 +44,8 @@ _WIDTH_OF = {
 
 
 def architecture(shapes: Mapping[str, tuple[int, ...]]) -> dict:
-    """``CenterDet`` keyword arguments (``widths``, ``neck``, ``head``, ``blocks``) from parameter shapes.
+    """``CenterDet`` keyword arguments (``widths``, ``neck``, ``head``, ``blocks``, and ``num_classes`` when
+    the heat head is among them) from parameter shapes.
 
     ``shapes``: parameter name -> shape, for a whole state dict or only some of it (an
     exported model's convolution weights); each must fit the architecture found, else
@@ -52,6 +57,8 @@ def architecture(shapes: Mapping[str, tuple[int, ...]]) -> dict:
     w = {name: int(shapes[key][0]) for key, name in _WIDTH_OF.items()}
     arch = {"widths": (w["w2"], w["w4"], w["w8"], w["w16"], w["w32"]), "neck": w["neck"], "head": w["head"],
             "blocks": added_blocks(shapes)}
+    if "heat.weight" in shapes:  # the class count: a model of fewer classes grows into more (``grow``)
+        arch["num_classes"] = int(shapes["heat.weight"][0])
     ref = CenterDet(**arch).state_dict()
     for k, shape in shapes.items():
         want = tuple(ref[k].shape) if k in ref else None

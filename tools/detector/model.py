@@ -21,6 +21,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from lookahead.perception.detections import CLASSES
 from lookahead.tools.detector.arch import BLOCKS, HEAD, NECK, WIDTHS
 
 STRIDE = 4
@@ -71,12 +72,13 @@ class CenterDet(nn.Module):
     from the weights of one with fewer and compute the same function (``arch.grow``).
     """
 
-    def __init__(self, num_classes: int = 8, widths: tuple[int, ...] = WIDTHS, neck: int = NECK,
+    def __init__(self, num_classes: int = len(CLASSES), widths: tuple[int, ...] = WIDTHS, neck: int = NECK,
                  head: int = HEAD, blocks: tuple[int, ...] = BLOCKS) -> None:
         super().__init__()
         w2, w4, w8, w16, w32 = widths
         self.num_classes = num_classes
-        self.arch = {"widths": tuple(widths), "neck": neck, "head": head, "blocks": tuple(blocks)}
+        self.arch = {"widths": tuple(widths), "neck": neck, "head": head, "blocks": tuple(blocks),
+                     "num_classes": num_classes}
         self.s2 = conv(3, w2, 2)
         self.s4 = nn.Sequential(conv(w2, w4, 2), conv(w4, w4), *_added(w4, blocks[0]))
         self.s8 = nn.Sequential(conv(w4, w8, 2), Residual(w8), *_added(w8, blocks[1]))

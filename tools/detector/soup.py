@@ -21,7 +21,6 @@ from pathlib import Path
 
 import torch
 
-from lookahead.perception.detections import CLASSES
 from lookahead.tools.detector.arch import ArchitectureError
 from lookahead.tools.detector.growth import architecture
 from lookahead.tools.detector.model import CenterDet
@@ -73,7 +72,7 @@ def soup(paths: Sequence[Path], out: Path, weights: Sequence[float] | None = Non
     checkpoint ``out`` with suffix ``.pt`` beside it). Returns ``out``."""
     w = soup_weights(len(paths), weights)
     state = average_checkpoints(paths, w)
-    net = CenterDet(len(CLASSES), **architecture({k: tuple(v.shape) for k, v in state.items()}))
+    net = CenterDet(**architecture({k: tuple(v.shape) for k, v in state.items()}))
     net.load_state_dict(state)
     out = Path(out)
     out.parent.mkdir(parents=True, exist_ok=True)

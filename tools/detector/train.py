@@ -272,7 +272,7 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int, 
         # lazy: torch, and onnx only when starting from an exported model
         from lookahead.tools.detector.from_onnx import exported_architecture, load_exported
 
-        src = CenterDet(len(CLASSES), **exported_architecture(init))
+        src = CenterDet(**exported_architecture(init))
         calib_rng = np.random.default_rng([cfg.seed, 2])
         calib = (torch.from_numpy(sampler.batch(calib_rng.choice(n_images, cfg.batch))[0])
                  .float().div_(255.0) for _ in range(CALIBRATION_BATCHES))
@@ -280,7 +280,7 @@ def _initial_network(net, init: Path, cfg: TrainConfig, sampler, n_images: int, 
     else:
         weights = _read_init_weights(init) if weights is None else weights
         try:
-            src = CenterDet(len(CLASSES), **architecture({k: tuple(v.shape) for k, v in weights.items()}))
+            src = CenterDet(**architecture({k: tuple(v.shape) for k, v in weights.items()}))
         except ArchitectureError as e:
             raise ArchitectureError(f"{init}: {e}") from None
         src.load_state_dict(weights)

@@ -73,7 +73,7 @@ from array import array
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
@@ -97,6 +97,9 @@ from lookahead.perception.tracker import TrackState
 from lookahead.sim.groundtruth import GroundTruth
 from lookahead.sim.records import Sink, TickRecord
 from lookahead.sim.scenario import MountSpec, mounted_camera
+
+if TYPE_CHECKING:
+    from lookahead.tools.sinks.narration import NarrationConfig
 
 log = logging.getLogger(__name__)
 config_log = log.getChild("config")  # one INFO line per applied reload (the CLI shows them)
@@ -236,6 +239,7 @@ def watch(
     rerun_live: bool = False,
     detector: str | None = None,
     stack: str | None = None,
+    narration: NarrationConfig | None = None,
 ) -> dict:
     """Run the perception stack on ``source`` into the run directory ``out`` (and ``db`` /
     ``video``); returns the summary (module docstring). ``progress`` gets a ``WatchStatus``
@@ -338,6 +342,10 @@ def watch(
                 from lookahead.tools.sinks.rerun import RerunSink
 
                 sinks.append(RerunSink(rerun_file, spawn=rerun_live))
+            if narration is not None:
+                from lookahead.tools.sinks.narration import NARRATION_FILE, NarrationSink
+
+                sinks.append(NarrationSink(out / NARRATION_FILE, narration))
             info = {"scenario": run_config.name, "seed": 0, "ticks": None, "renderer": None, "camera": camera}
             for s in sinks:
                 s.on_start(info)

@@ -1,8 +1,8 @@
 """The ``detection`` section of ``metrics.json``: precision, recall and AP50 per class.
 
 Which ground truth counts (per frame, on the GT *visible* box):
-    evaluated  -- visible box present, ``class_id >= 0`` (static obstacles, -1, are
-                  no detection class), ``visible_fraction >= MIN_VISIBLE_FRACTION``
+    evaluated  -- visible box present, ``class_id >= 0`` (-1, no detection class: obstacles in
+                  runs recorded before they became one), ``visible_fraction >= MIN_VISIBLE_FRACTION``
                   (0.5) and visible box height ``>= MIN_BOX_HEIGHT_PX`` (10 px);
     don't care -- visible but failing one of those; a detection that matches no
                   evaluated GT but is of a don't-care GT -- IoU >= 0.5 with one of

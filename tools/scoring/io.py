@@ -48,7 +48,7 @@ class GTFrame:
     """Ground truth of one frame (N actors), ego frame, SI units."""
 
     actor_id: np.ndarray  # (N,) int
-    class_id: np.ndarray  # (N,) int, -1 = static obstacle
+    class_id: np.ndarray  # (N,) int, -1 = no detection class (obstacles in runs recorded before they were one)
     visible: np.ndarray  # (N, 4) xyxy px, NaN when not visible
     visible_fraction: np.ndarray  # (N,) in [0, 1]
     truncation: np.ndarray  # (N,) share of the amodal box outside the image

@@ -36,8 +36,9 @@ it (for short runs).
 
 Needs rerun-sdk >= 0.23 (``rr.Scalars``, ``set_time(duration=...)``); ``write_footer``
 needs a recent one (tested with 0.41; older ones are called without it).
-Class ids follow ``perception.detections.CLASSES``; static obstacles (-1) are
-``OBSTACLE_CLASS`` (an annotation context names and colours them all).
+Class ids follow ``perception.detections.CLASSES`` (obstacles included); class id -1, which
+runs recorded before obstacles were a detection class carry for them, is ``OBSTACLE_CLASS``
+(an annotation context names and colours them all).
 """
 
 from __future__ import annotations

@@ -64,7 +64,7 @@ BUSY_TIMEOUT_S = 30.0  # wait this long for another writer (parallel suite worke
 
 _LABELS = np.array([LABEL_NAMES[k] for k in sorted(LABEL_NAMES)], dtype=object)
 _BEHAVIOURS = np.array([BEHAVIOUR_NAMES[k] for k in sorted(BEHAVIOUR_NAMES)], dtype=object)
-_CLASSES = np.array([*CLASSES, "obstacle"], dtype=object)  # index -1 -> "obstacle"
+_CLASSES = np.array([*CLASSES, "obstacle"], dtype=object)  # index -1 (obstacles in older runs) -> "obstacle"
 
 _BOX = "{p}_x1 REAL, {p}_y1 REAL, {p}_x2 REAL, {p}_y2 REAL"
 _EST = "range REAL, lateral REAL, range_rate REAL, lateral_rate REAL, ttc REAL"

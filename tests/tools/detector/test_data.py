@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from lookahead.perception.detections import CLASSES
 from lookahead.tools.detector.data import DatasetError, load_split
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -32,7 +33,7 @@ BROKEN = [  # annotations.json content (bytes), what the one line must say
     (json.dumps({"images": [IMAGE], "annotations": [{**ANNOTATION, "attributes": {}}]}).encode(),
      "annotations[0].attributes: a mapping with range_m"),
     (json.dumps({"images": [IMAGE], "annotations": [{**ANNOTATION, "category_id": 10**12}]}).encode(),
-     "annotations[0].category_id: a class id 1..8 expected"),
+     f"annotations[0].category_id: a class id 1..{len(CLASSES)} expected"),
     (b'{"images": [], "annotations": [{"image_id": 1, "category_id": 1, "bbox": [0, 0, NaN, 1], '
      b'"occlusion": 0, "attributes": {"range_m": 1}}]}', "annotations[0].bbox"),
 ]

@@ -11,6 +11,7 @@ import pytest
 
 torch = pytest.importorskip("torch")
 
+from lookahead.perception.detections import CLASS_ID, CLASSES  # noqa: E402
 from lookahead.perception.detectors.onnx_detector import OnnxDetector  # noqa: E402
 from lookahead.tools.detector.data import STRIDE, encode  # noqa: E402
 from lookahead.tools.detector.evaluate import evaluate_split, recall_at_precision  # noqa: E402
@@ -251,12 +252,12 @@ def test_a_real_training_run_exports_a_model_the_detector_runs(tiny_dataset, tmp
     assert result["history"][-1]["loss"] < result["history"][0]["loss"] * 1.5
     assert "val" in result["history"][-1]
     det = OnnxDetector(out)
-    assert det.layout == "v8" and det.num_classes == 8 and det.input_hw == (384, 640)
+    assert det.layout == "v8" and det.num_classes == len(CLASSES) and det.input_hw == (384, 640)
     assert det.dynamic_input  # zoom windows run at their own size
     assert det.names[0] == "pedestrian" and det.class_map is not None
     d = det.detect(np.zeros((360, 640, 3), np.uint8))
     assert d.xyxy.shape[1] == 4
-    assert det.infer(det.preprocess(np.zeros((96, 320, 3), np.uint8), zoom=3.0)[0]).shape == (1, 12, 72 * 240)
+    assert det.infer(det.preprocess(np.zeros((96, 320, 3), np.uint8), zoom=3.0)[0]).shape == (1, 4 + len(CLASSES), 72 * 240)
     net = CenterDet()
     assert sum(p.numel() for p in net.parameters()) < 2_000_000
 
@@ -306,7 +307,7 @@ def test_an_exported_model_loads_back_for_fine_tuning(tmp_path):
     base = rng.uniform(0.2, 0.8, (1, 3, 1, 1)) + np.linspace(-0.2, 0.2, 640)[None, None, None, :]
     x = np.clip(base + rng.normal(0, 0.05, (1, 3, 384, 640)), 0, 1).astype(np.float32)
     calib = [torch.from_numpy(x[:, :, 64:320, 128:512].copy()) for _ in range(2)]
-    net = CenterDet()
+    net = CenterDet(num_classes=OnnxDetector(shipped).num_classes)  # the shipped file's class count
     load_exported(net, shipped, calib)
     out = export_onnx(net, tmp_path / "again.onnx", {})
     a = ort.InferenceSession(str(shipped)).run(None, {"images": x})[0]
@@ -356,7 +357,8 @@ def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
 
     small = _randomised(CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8))
     wide = grow(small, CenterDet(widths=(12, 16, 32, 48, 40), neck=24, head=16))
-    assert wide.arch == {"widths": (12, 16, 32, 48, 40), "neck": 24, "head": 16, "blocks": (0, 0, 0, 0)}
+    assert wide.arch == {"widths": (12, 16, 32, 48, 40), "neck": 24, "head": 16, "blocks": (0, 0, 0, 0),
+                         "num_classes": len(CLASSES)}
     x = torch.rand(2, 3, 64, 96, generator=torch.Generator().manual_seed(2))
     for mode in ("eval", "train"):  # train mode: batch statistics, the same for the old channels
         small.train(mode == "train")
@@ -372,6 +374,32 @@ def test_a_network_grows_into_a_wider_one_that_computes_the_same_function():
     loss.backward()
     assert float(wide.heat.weight.grad[:, 8:].abs().sum()) > 0
     assert float(wide.f4[0].weight.grad[8:].abs().sum()) == 0  # rows feeding only zero columns: not yet
+
+
+def test_a_model_of_fewer_classes_starts_one_of_more_that_finds_what_it_found(tmp_path):
+    """An eight-class model (before ``obstacle``) starts a nine-class network: the old classes'
+    heat maps and the boxes are its own, the new class starts at the focal-loss prior, and the
+    exported file reads back as nine classes with the new one named."""
+    import torch
+
+    from lookahead.tools.detector.growth import architecture, grow
+    from lookahead.tools.detector.train import export_onnx, model_metadata
+
+    torch.manual_seed(0)
+    old = CenterDet(num_classes=8, widths=(8, 16, 24, 32, 40), neck=16, head=8).eval()
+    with torch.no_grad():  # a trained head: not the all-equal initial biases
+        old.heat.bias.copy_(torch.linspace(-3.0, -1.0, 8))
+    assert architecture({k: tuple(v.shape) for k, v in old.state_dict().items()})["num_classes"] == 8
+    new = grow(old, CenterDet(widths=(8, 16, 24, 32, 40), neck=16, head=8)).eval()
+    x = torch.rand(1, 3, 64, 96)
+    (h0, r0), (h1, r1) = old(x), new(x)
+    torch.testing.assert_close(h1[:, :8], h0)
+    torch.testing.assert_close(r1, r0)
+    assert h1.shape[1] == len(CLASSES) == 9
+    assert float(torch.sigmoid(h1[:, CLASS_ID["obstacle"]]).mean()) < 0.1  # finds no obstacle yet
+    path = export_onnx(new, tmp_path / "nine.onnx", model_metadata(None, None), input_hw=(64, 96))
+    det = OnnxDetector(path)
+    assert det.num_classes == 9 and det.names[CLASS_ID["obstacle"]] == "obstacle"
 
 
 def test_a_network_grows_into_a_deeper_one_that_computes_the_same_function():
@@ -403,8 +431,9 @@ def test_the_architecture_is_read_back_from_weights_and_a_network_never_shrinks(
     from lookahead.tools.detector.growth import architecture, grow
     from lookahead.tools.detector.train import export_onnx
 
-    assert exported_architecture(ROOT / "models" / "lookahead-det.onnx") == CenterDet().arch
-    arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8, "blocks": (1, 0, 2, 1)}
+    shipped = ROOT / "models" / "lookahead-det.onnx"
+    assert exported_architecture(shipped) == CenterDet(num_classes=OnnxDetector(shipped).num_classes).arch
+    arch = {"widths": (8, 16, 24, 32, 40), "neck": 16, "head": 8, "blocks": (1, 0, 2, 1), "num_classes": len(CLASSES)}
     net = CenterDet(**arch)
     assert architecture({k: tuple(v.shape) for k, v in net.state_dict().items()}) == arch
     assert exported_architecture(export_onnx(net, tmp_path / "small.onnx", {}, input_hw=(64, 96))) == arch
@@ -429,7 +458,7 @@ def test_a_larger_network_fine_tunes_from_a_smaller_model_and_exports(tiny_datas
     train(tiny_dataset, grown, TrainConfig(**{**cfg, "neck": 24, "head": 16, "blocks": (0, 1, 0, 2),
                                               "init": str(small)}))
     assert exported_architecture(grown) == {"widths": (8, 16, 24, 32, 40), "neck": 24, "head": 16,
-                                            "blocks": (0, 1, 0, 2)}
+                                            "blocks": (0, 1, 0, 2), "num_classes": len(CLASSES)}
     assert OnnxDetector(grown).detect(np.zeros((360, 640, 3), np.uint8)).xyxy.shape[1] == 4
     res = CliRunner().invoke(app, ["train-detector", str(tiny_dataset), "--out", str(tmp_path / "m.onnx"),
                                    "--init", str(grown), "--widths", "8", "16", "24", "32", "40",

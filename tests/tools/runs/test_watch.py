@@ -46,7 +46,7 @@ def clip(tmp_path_factory: pytest.TempPathFactory) -> dict:
 def test_watch_rendered_clip_all_outputs(clip: dict, tmp_path: Path, lookahead, capsys) -> None:
     out, db, video = tmp_path / "run", tmp_path / "watch.sqlite", tmp_path / "run" / "annotated.mp4"
     code = lookahead("watch", clip["video"], "--out", out, "--calibration", clip["calibration"],
-                     "--ego-speed", "11.1", "--video", video, "--db", db, "--rerun", out / "run.rrd")
+                     "--ego-speed", "11.1", "--video", video, "--db", db, "--rerun", out / "run.rrd", "--narrate")
     printed = capsys.readouterr()
     assert code == 0, printed.err
     assert f"{FRAMES} frames" in printed.err and "0 dropped" in printed.err
@@ -102,6 +102,15 @@ def test_watch_rendered_clip_all_outputs(clip: dict, tmp_path: Path, lookahead, 
         assert conn.execute("SELECT COUNT(DISTINCT frame) FROM tracks WHERE cls = 'pedestrian'").fetchone()[0] \
             >= 0.9 * len(visible[2:])
     assert count_frames(video) == FRAMES
+
+    # narration on real video: a sentence in each language per warning, no ground truth to check against
+    warnings = [a for t in ticks for a in t["alerts"] if a["kind"] in ("fcw", "critical") and a["level"] >= 3]
+    lines = [json.loads(line) for line in (out / "narration.jsonl").read_text().splitlines()]
+    assert len(warnings) >= 1 and len(lines) == len(warnings)
+    for line, alert in zip(lines, warnings, strict=True):
+        assert (line["track_id"], line["kind"], line["t"]) == (alert["track_id"], alert["kind"], alert["t"])
+        assert line["facts"]["class"] == "pedestrian" and "pedestrian" in line["en"] and "行人" in line["zh"]
+        assert line["truth_actor"] is None and line["truth_facts"] is None and line["source"] == "template"
 
 
 def test_watch_sigint_ends_run_flushed_without_ego_speed(clip: dict, tmp_path: Path) -> None:

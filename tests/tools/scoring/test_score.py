@@ -135,14 +135,14 @@ def test_a_box_a_few_pixels_wide_is_matched_by_centre_and_size(tmp_path):
 def test_dont_care_ground_truth_is_neither_tp_nor_fp(tmp_path):
     occluded = {"id": 3, "cls": PED, "box": [200, 0, 210, 20], "vf": 0.3}
     small = {"id": 4, "cls": PED, "box": [250, 0, 254, 8]}  # 8 px high
-    cone = {"id": 5, "cls": -1, "box": [400, 0, 420, 20]}  # static obstacle
+    cone = {"id": 5, "cls": -1, "box": [400, 0, 420, 20]}  # no detection class (an obstacle in an older run)
     hidden = {"id": 6, "cls": PED, "box": [None] * 4, "vf": 0.0}  # not visible at all (as the writer writes it)
     run = write_run(tmp_path / "r", [{
         "ground_truth": gt({"id": 1, "cls": PED, "box": A}, occluded, small, cone, hidden),
         "detections": dets(
             (A, 0.9, PED), ([200, 0, 210, 20], 0.8, PED), ([200, 0, 210, 20], 0.7, PED),
             ([250, 0, 254, 8], 0.6, PED),
-            ([400, 0, 420, 20], 0.5, CAR),  # obstacle is no detection class: FP
+            ([400, 0, 420, 20], 0.5, CAR),  # of no detection class: FP
         ),
     }])
     m = score_run(run)["detection"]
