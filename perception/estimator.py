@@ -456,15 +456,17 @@ class Estimator:
 
     # ------------------------------------------------------------ one frame
     def measure(
-        self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None
+        self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None,
+        height: np.ndarray | None = None, height_sigma: np.ndarray | None = None,
     ) -> Measurement:
         """Single-frame position measurements of boxes (N, 4) with classes (N,):
         ``BoxRanger.measure`` (``perception.ranging``) with this estimator's camera and config.
 
         ``cos_heading``: |cos| of each object's heading relative to the ego x axis
-        (1 = seen end-on, the default; 0 = side-on), for the contact offset.
+        (1 = seen end-on, the default; 0 = side-on), for the contact offset; ``height`` /
+        ``height_sigma``: each object's own height and std (m) in place of the class prior.
         """
-        return self.ranger.measure(xyxy, class_id, cos_heading)
+        return self.ranger.measure(xyxy, class_id, cos_heading, height, height_sigma)
 
     def update(
         self,
@@ -518,9 +520,8 @@ class Estimator:
 
         n = len(tracks)
         h_known, sh_known = self._learned_heights(tracks) if cfg.range_learned_height else (None, None)
-        meas = self.ranger.measure(
-            self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks), h_known, sh_known
-        )
+        meas = self.measure(self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks),
+                            h_known, sh_known)
         valid = meas.valid
         state = np.full((n, self._dim), np.nan)
         p_diag = np.full((n, self._dim), np.nan)
@@ -630,7 +631,7 @@ class Estimator:
             v.append(va * vo / (va + vo))
         w_arr, m_arr, v_arr = np.asarray(w), np.asarray(m), np.asarray(v)
         if not w_arr.sum() > 0.0:  # the evidence far from every mode: the nearest one's posterior
-            w_arr = np.eye(len(w))[int(np.argmax(-np.abs(o - (m_arr))))]
+            w_arr = np.eye(len(w))[int(np.argmin(np.abs(o - m_arr)))]
         w_arr = w_arr / w_arr.sum()
         a = float(w_arr @ m_arr)
         var = float(w_arr @ (v_arr + (m_arr - a) ** 2))
