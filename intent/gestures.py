@@ -19,9 +19,11 @@ velocity (ego axes, m/s), and overrides the track's behaviour, in this order:
   ``WAVE_STILL_SPEED`` (1.0 m/s: a walker's gait beats the box too, but a walker moves on;
   the waving box itself makes the estimated velocity wander by up to 0.8 m/s).
 * ``LOITERING`` -- pacing to and fro: over the last ``LOITER_WINDOW_S`` (4 s) the velocity
-  along its main direction has gone each way faster than ``LOITER_SPEED`` (0.4 m/s) for at
-  least ``LOITER_RUN_S`` (1 s) on end while the mean velocity stays under
-  ``LOITER_STILL_SPEED`` (0.6 m/s).
+  less its mean over the window, along its main direction, has gone each way faster than
+  ``LOITER_SPEED`` (0.4 m/s) for at least ``LOITER_RUN_S`` (1 s) on end while the mean
+  velocity stays under ``LOITER_STILL_SPEED`` (0.6 m/s). The mean is taken out because a
+  bias common to the window -- a range scale error times the ego's speed -- shifts both legs
+  alike: measured with the ground map, the pacer's legs read +1.5 and -0.5 m/s.
 
 A gesture, once seen, is held ``HOLD_S`` (1 s) after its last sign (a wave's aspect dips
 between beats, a pacer stops to turn). Tracks of other classes, and pedestrians with too
@@ -108,9 +110,12 @@ class GestureRecognizer:
                 return Behaviour.WAVING
         if len(h) >= LOITER_MIN_SAMPLES and h[-1, 0] - h[0, 0] >= LOITER_WINDOW_S - 0.5:
             v = h[:, 2:4]
-            if np.hypot(*v.mean(axis=0)) < LOITER_STILL_SPEED:
-                _, _, vt = np.linalg.svd(v, full_matrices=False)
-                along = v @ vt[0]  # the velocity along its main direction
+            mean = v.mean(axis=0)
+            if np.hypot(*mean) < LOITER_STILL_SPEED:
+                # to and fro about the mean: a bias common to the window (a range scale error
+                # times the ego's speed) shifts both legs alike and is no pacing
+                _, _, vt = np.linalg.svd(v - mean, full_matrices=False)
+                along = (v - mean) @ vt[0]  # the velocity along its main direction
                 period = (h[-1, 0] - h[0, 0]) / max(len(h) - 1, 1)
                 need = max(int(round(LOITER_RUN_S / period)), 1)
                 if _longest_run(along > LOITER_SPEED) >= need and _longest_run(along < -LOITER_SPEED) >= need:

@@ -148,7 +148,7 @@ class PerceptionStack:
         te = time.perf_counter()
         tracks = self.tracker.update(dets, features)
         t2 = time.perf_counter()
-        est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets)
+        est = self.estimator.update(tracks, frame.odometry, frame.t, detections=dets, ground=frame.ground)
         t3 = time.perf_counter()
         timings.update(preprocess=(t0 - tp) * 1e3, detect=(t1 - t0) * 1e3, track=(t2 - te) * 1e3,
                        estimate=(t3 - t2) * 1e3)

@@ -185,6 +185,7 @@ from lookahead.perception.detections import Detections
 from lookahead.perception.estimator_config import ClassPrior, EstimatorConfig, PriorTable
 from lookahead.perception.frame import EgoOdometry
 from lookahead.perception.geometry import rotation_2d
+from lookahead.perception.ground_map import GroundMap
 from lookahead.perception.ranging import MIN_DEPTH, BoxRanger, Measurement
 from lookahead.perception.tracker import Tracks, TrackState
 
@@ -428,6 +429,7 @@ class Estimator:
 
     def __init__(self, camera: CameraModel, config: EstimatorConfig | None = None) -> None:
         self.camera = camera
+        self._mapped = False  # the last frame's contacts were on a ground map's surfaces (``measure``)
         self.config = config or EstimatorConfig()
         self.priors = PriorTable(self.config)
         self.ranger = BoxRanger(camera, self.config, self.priors)
@@ -458,15 +460,24 @@ class Estimator:
     def measure(
         self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None,
         height: np.ndarray | None = None, height_sigma: np.ndarray | None = None,
+        ground: GroundMap | None = None,
     ) -> Measurement:
         """Single-frame position measurements of boxes (N, 4) with classes (N,):
         ``BoxRanger.measure`` (``perception.ranging``) with this estimator's camera and config.
 
         ``cos_heading``: |cos| of each object's heading relative to the ego x axis
         (1 = seen end-on, the default; 0 = side-on), for the contact offset; ``height`` /
-        ``height_sigma``: each object's own height and std (m) in place of the class prior.
+        ``height_sigma``: each object's own height and std (m) in place of the class prior;
+        ``ground``: the frame's ground map, whose surface under each box's bottom-centre ray is
+        the contact's plane (with ``config.ground_map``; None: the road plane).
         """
-        return self.ranger.measure(xyxy, class_id, cos_heading, height, height_sigma)
+        contact_z = None
+        self._mapped = ground is not None and self.config.ground_map
+        if self._mapped and len(xyxy):
+            b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
+            bottom = np.stack([0.5 * (b[:, 0] + b[:, 2]), b[:, 3]], axis=-1)
+            contact_z = ground.contact_heights(self.camera, np.nan_to_num(bottom, nan=-1e9))
+        return self.ranger.measure(xyxy, class_id, cos_heading, height, height_sigma, contact_z)
 
     def update(
         self,
@@ -474,6 +485,7 @@ class Estimator:
         odometry: EgoOdometry | None,
         t: float,
         detections: Detections | None = None,
+        ground: GroundMap | None = None,
     ) -> Estimates:
         """Advance to time ``t`` (s) with this frame's tracks and ego odometry; return estimates.
 
@@ -482,7 +494,8 @@ class Estimator:
         get their filter's prediction without an update. With ``detections``
         (the ones given to the tracker this frame), a track matched this frame
         is measured on its raw detection box (``det_index``) rather than on
-        the tracker's smoothed box, so the two filters do not stack their lag.
+        the tracker's smoothed box, so the two filters do not stack their lag. ``ground``: the
+        frame's ground map (``Frame.ground``), for contacts on a pavement (``measure``).
 
         ``odometry.speed_known`` False (see "Without ego speed" in the module docstring): the
         filters run on velocities relative to the ego and the fields that need the ego's speed
@@ -521,7 +534,7 @@ class Estimator:
         n = len(tracks)
         h_known, sh_known = self._learned_heights(tracks) if cfg.range_learned_height else (None, None)
         meas = self.measure(self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks),
-                            h_known, sh_known)
+                            h_known, sh_known, ground)
         valid = meas.valid
         state = np.full((n, self._dim), np.nan)
         p_diag = np.full((n, self._dim), np.nan)
@@ -621,7 +634,8 @@ class Estimator:
         cid = np.array([cls])
         if not info > 0.0:
             return float(self.prior_of(cid, "height")[0]), float(self.prior_of(cid, "height_sigma")[0])
-        vb = (float(self.prior_of(cid, "contact_height_sigma")[0]) / self.camera.mount[2]) ** 2
+        contact_sigma = self.config.ground_map_sigma if self._mapped else float(self.prior_of(cid, "contact_height_sigma")[0])
+        vb = (contact_sigma / self.camera.mount[2]) ** 2
         vo, o = vb + 1.0 / info, log_sum / info
         w, m, v = [], [], []
         for weight, h0, s0 in self.priors.modes_of(cls):

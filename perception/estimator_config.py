@@ -181,6 +181,14 @@ class EstimatorConfig(BaseModel):
     range_learned_height: bool = Field(
         False, description="range a track's boxes with its learned height (and std) instead of the class prior "
         "once it has height evidence (off: measured worse on the shipped scenarios, see perception.estimator)")
+    ground_map: bool = Field(
+        False, description="range a box's ground contact on the surface a frame's ground map says its ray meets "
+        "first (a pavement's top, perception.ground_map) instead of the road plane; off: the road plane always "
+        "(off by default: measured better range and behaviour on the shipped scenarios, but parked SUVs then "
+        "range short by the car's size priors and one read in path; see perception.ground_map)")
+    ground_map_sigma: float = Field(
+        0.02, ge=0, description="std of the ground's height under a contact where a ground map gives it (m): "
+        "replaces the classes' contact_height_sigma")
 
 
 

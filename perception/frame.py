@@ -7,6 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lookahead.perception.camera import CameraModel
+from lookahead.perception.ground_map import GroundMap
 
 
 @dataclass
@@ -43,3 +44,4 @@ class Frame:
     depth: np.ndarray | None = None
     segmentation: np.ndarray | None = None
     index: int = 0
+    ground: GroundMap | None = None  # raised ground (pavements) and the ego's pose on it; None: the road plane only

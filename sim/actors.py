@@ -93,6 +93,20 @@ class ScriptedActor(Vehicle):
     def yaw(self) -> float:
         return -float(self.heading)
 
+    def polygon(self) -> np.ndarray:
+        """Collision footprint (highway-env frame, closed ring of 5 points): the rest box, or for a
+        body pitched by a fall the posed body's ground box -- a fallen pedestrian lies on the road
+        along its heading, its head up to a body length ahead of its feet."""
+        if not self.body:
+            return super().polygon()
+        (cx, cy, _), (length, width, _) = self.identity.shape.local_box((self.gait_phase, self.arm, self.body))
+        corners = np.array([[-1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [1.0, -1.0], [-1.0, -1.0]]) * [length / 2, width / 2]
+        local = corners + [cx, cy]
+        yaw = self.yaw
+        c, s = np.cos(yaw), np.sin(yaw)
+        world = self.xy + local @ np.array([[c, s], [-s, c]])
+        return world * [1.0, -1.0]  # highway-env's y points the other way
+
     # -------------------------------------------------------------- script
     def apply(self, action: ActionSpec) -> None:
         """Start executing one script action."""
@@ -150,6 +164,9 @@ class ScriptedActor(Vehicle):
             self.arm = raised * (WAVE_ARM + WAVE_SWING * np.sin(2.0 * np.pi * WAVE_HZ * t))
         elif self.gesture == "fall":
             self.body = min(np.pi / 2, np.pi / 2 * (t / FALL_S) ** 2)  # a toppling body speeds up
+            # the collision check's coarse test reaches the fallen body's far end
+            (cx, cy, _), (length, width, _) = self.identity.shape.local_box((self.gait_phase, self.arm, self.body))
+            self.diagonal = max(self.diagonal, 2.0 * float(np.hypot(abs(cx) + length / 2, abs(cy) + width / 2)))
         elif self.loiter is not None:
             centre, axis, half = self.loiter
             along = float(np.dot(xy - centre, axis))

@@ -94,7 +94,8 @@ class Sender:
         vp = self.viewpoint(world)
         gt = world_truth(world, self.camera, self.intent, vp)
         frame = Frame(tick=world.tick, t=world.t, camera=self.camera, index=frame_index,
-                      odometry=EgoOdometry(speed=vp.speed, accel=vp.accel, yaw_rate=vp.yaw_rate))
+                      odometry=EgoOdometry(speed=vp.speed, accel=vp.accel, yaw_rate=vp.yaw_rate),
+                      ground=world.layout.ground_map(vp.pose))
         view = SenderView(self.name, vp, frame, gt)
         if self.rig is not None:
             view.poses = {k: v for k, v in world.actor_poses(with_ego=True).items() if k != self.carrier}

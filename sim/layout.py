@@ -11,6 +11,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from lookahead.perception.ground_map import GroundMap
+
 
 @dataclass(frozen=True)
 class Marking:
@@ -67,13 +69,13 @@ class RoadLayout:
     def surface_height(self, xy: np.ndarray) -> np.ndarray:
         """Height (m) of the surface under world points ``xy`` (N, 2): ``kerb_height``
         on sidewalks, 0 elsewhere. Actors stand on it (renderer and ground truth alike)."""
-        pts = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if not self.sidewalks:
-            return np.zeros(len(pts))
-        r = np.array([[s.x0, s.y0, s.x1, s.y1] for s in self.sidewalks])
-        x, y = pts[:, 0:1], pts[:, 1:2]
-        inside = (x >= r[:, 0]) & (x < r[:, 2]) & (y >= r[:, 1]) & (y < r[:, 3])
-        return np.where(inside.any(axis=1), self.kerb_height, 0.0)
+        return self.ground_map((0.0, 0.0, 0.0)).height_at(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
+
+    def ground_map(self, pose: tuple[float, float, float]) -> GroundMap:
+        """The raised ground (the sidewalks at ``kerb_height``) as perception's map, with the pose
+        (world x, y, yaw) of the ego frame that looks at it (``perception.ground_map``)."""
+        rects = np.array([[s.x0, s.y0, s.x1, s.y1] for s in self.sidewalks], dtype=np.float64).reshape(-1, 4)
+        return GroundMap(rects, np.full(len(rects), self.kerb_height), tuple(float(v) for v in pose))
 
     def bounds(self) -> np.ndarray:
         """[x0, y0, x1, y1] of everything in the layout (m)."""

@@ -255,7 +255,8 @@ class Runner:
             ego["aeb_brake"] = self.aeb_brake
         if self.driver is not None:  # only with a driver: runs without one record exactly as before
             ego["driver_brake"] = self.driver_brake
-        frame = Frame(tick=w.tick, t=w.t, camera=self.camera, odometry=w.odometry, index=self.frame_index)
+        frame = Frame(tick=w.tick, t=w.t, camera=self.camera, odometry=w.odometry, index=self.frame_index,
+                      ground=w.layout.ground_map((x, y, yaw)))
         self.frame_index += 1
         timings = {"sim": sim_ms, "gt": (time.perf_counter() - t0) * 1e3}
         snap = _Snapshot(frame, (x, y, yaw), w.actor_poses(), gt, ego, list(collisions), timings)

@@ -11,15 +11,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from highway_env.road.road import Road
+from highway_env.road.road import Road, RoadNetwork
 from highway_env.vehicle.behavior import IDMVehicle
 
 from lookahead.perception.frame import EgoOdometry
 from lookahead.perception.geometry import nearest_x_extent  # noqa: F401 (re-exported)
 from lookahead.sim.actors import Identity, ScriptedActor, wrap
 from lookahead.sim.ego import Collision, EgoVehicle
-from lookahead.sim.layout import ego_frame  # noqa: F401 (re-exported)
-from lookahead.sim.road import MAIN_FROM, MAIN_TO, build_road
+from lookahead.sim.layout import RoadLayout, ego_frame  # noqa: F401 (re-exported)
+from lookahead.sim.road import MAIN_FROM, MAIN_TO, RoadGeometry, build_road
 from lookahead.sim.scenario import Scenario, TriggerSpec
 from lookahead.sim.shapes import make_shape
 
@@ -80,6 +80,11 @@ def ref_to_centre(ref: str, yaw: float, length: float, width: float) -> np.ndarr
     return sign * 0.5 * float(length) * np.array([np.cos(yaw), np.sin(yaw)])
 
 
+def scenario_road(scenario: Scenario) -> tuple[RoadNetwork, RoadGeometry, RoadLayout]:
+    """The road network, geometry and layout of ``scenario`` (a cross street 60 m ahead of the ego)."""
+    return build_road(scenario.road, cross_x=scenario.ego.s + scenario.ego.length / 2.0 + 60.0)
+
+
 class World:
     """A deterministic closed-loop world built from a ``Scenario``."""
 
@@ -89,8 +94,7 @@ class World:
         self.t = 0.0
         self.tick = 0
         ego_spec = scenario.ego
-        cross_x = ego_spec.s + ego_spec.length / 2.0 + 60.0
-        self.network, self.geometry, self.layout = build_road(scenario.road, cross_x=cross_x)
+        self.network, self.geometry, self.layout = scenario_road(scenario)
         self.road = Road(network=self.network, np_random=np.random.RandomState(scenario.seed))
 
         lane_index = (MAIN_FROM, MAIN_TO, ego_spec.lane)

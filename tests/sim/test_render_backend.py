@@ -25,13 +25,19 @@ def test_the_faster_backend_is_measured_once_and_cached(tmp_path, monkeypatch):
     cache = json.loads((tmp_path / "render_backends.json").read_text())
     (key, times), = cache.items()
     assert key.startswith("160x90|") and "tiny" in times and all(v > 0 for v in times.values())
-    want = "tiny" if times.get("egl") is None or times["tiny"] < render_backend.TINY_MARGIN * times["egl"] else "egl"
-    assert chosen == want and measured == [(160, 90)]
+    assert chosen == _fastest(times) and measured == [(160, 90)]
     # the cached answer: nothing measured again
     assert render_backend.choose_backend(camera) == chosen and measured == [(160, 90)]
     # an unreadable cache is measured again, not an error
     (tmp_path / "render_backends.json").write_text("{not json")
-    assert render_backend.choose_backend(camera) == chosen and len(measured) == 2
+    again = render_backend.choose_backend(camera)
+    (times,) = json.loads((tmp_path / "render_backends.json").read_text()).values()
+    # a new measurement on a noisy machine may pick the other backend; it picks the faster of what it measured
+    assert len(measured) == 2 and again == _fastest(times)
+
+
+def _fastest(times: dict[str, float]) -> str:
+    return "tiny" if times.get("egl") is None or times["tiny"] < render_backend.TINY_MARGIN * times["egl"] else "egl"
 
 
 @pytest.mark.parametrize("times, want", [

@@ -79,3 +79,20 @@ def test_shipped_model_sees_each_scene_and_nothing_else(results, name):
     found, total, false_pos = results[name]
     assert total > 0 and found >= 1, f"{name}: found {found} of {total} actors"
     assert false_pos == 0, f"{name}: {false_pos} confident detections on nothing"
+
+
+def test_a_barrier_in_the_lane_is_seen_from_pixels_and_braked_for():
+    """Issue 36: the shipped model's obstacle class in the closed loop -- a road-works barrier
+    behind a taper of cones, 40 km/h, AEB on, rendered frames: warned, braked, stopped short."""
+    from lookahead.perception.detections import CLASS_ID
+    from lookahead.sim.records import RecordCollector
+    from lookahead.sim.scenario import with_detector
+
+    sc = with_detector(load_scenario(ROOT / "scenarios" / "barrier_in_lane.yaml"), "onnx")
+    sc = sc.model_copy(update={"ego": sc.ego.model_copy(update={"aeb": True})})
+    sink = RecordCollector()
+    result = Runner(sc, sinks=[sink], render=True).run()
+    assert not result.collisions, f"hit {result.collisions[0]}"
+    seen = [r.t for r in sink.records if np.any(r.detections.class_id == CLASS_ID["obstacle"])]
+    assert seen and seen[0] <= 1.0, "the cones and barrier are detected as obstacles from the start"
+    assert any(r.ego.get("aeb_brake") for r in sink.records), "the AEB braked"

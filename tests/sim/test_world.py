@@ -133,3 +133,20 @@ def test_same_seed_same_traffic_and_shapes():
     np.testing.assert_array_equal(sa.length, sb.length)
     c = World(parse_scenario(text.replace("seed: 1", "seed: 2")))
     assert not np.array_equal(c.agent_states().xy, World(parse_scenario(text)).agent_states().xy)
+
+
+@pytest.mark.parametrize("falls", [False, True])
+def test_a_fallen_pedestrian_lies_in_the_path_it_fell_into(falls):
+    """Standing beside the ego's path the pedestrian is passed; fallen towards it, the body on the
+    road is hit (the collision footprint is the posed body's, not the standing one's)."""
+    script = "\n    script:\n      - when: {t: 0.1}\n        do: {gesture: fall}" if falls else ""
+    w = world(f"""
+actors:
+  - id: ped
+    type: pedestrian
+    start: {{x: 20, y: -1.5}}
+    heading: 90
+    speed: 0.0{script}
+""")
+    hits = run(w, 3.0)
+    assert [h.name for h in hits] == (["ped"] if falls else [])

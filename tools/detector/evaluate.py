@@ -1,6 +1,7 @@
 """Detector accuracy on a COCO split, through the run-time pipeline (``OnnxDetector``).
 
-Evaluated ground truth: objects of the eight classes at range ``RANGE_M`` (5-50 m)
+Evaluated ground truth: objects of the detection classes (``CLASSES``: the eight road-user
+classes and ``obstacle``) at range ``RANGE_M`` (5-50 m)
 with visible fraction >= ``MIN_VISIBLE`` (0.5) -- the issue's acceptance set. Every
 other labelled object is *don't care*: a detection of it (IoU >= 0.5, whatever the
 class, or at least half the detection inside the box of one of its class,

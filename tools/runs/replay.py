@@ -59,10 +59,13 @@ from lookahead.perception.detections import CLASSES, Detections
 from lookahead.perception.detectors.base import DetectorTruth
 from lookahead.perception.detectors.gt_detector import CONFUSION_COUNT, CONFUSION_TABLE
 from lookahead.perception.frame import EgoOdometry, Frame
+from lookahead.perception.ground_map import GroundMap
 from lookahead.sim.aeb import Aeb
+from lookahead.sim.layout import RoadLayout
 from lookahead.sim.records import jsonable
 from lookahead.sim.runner import camera_from_scenario
 from lookahead.sim.scenario import Scenario, format_validation
+from lookahead.sim.world import scenario_road
 from lookahead.tools.runs.inputs import OVERRIDE_SECTIONS, ReplayError, read_overrides  # noqa: F401 (re-exported)
 from lookahead.tools.scoring.intent import aeb_brake_of
 from lookahead.tools.scoring.io import MAX_TICK, run_record, ticks_records
@@ -181,6 +184,14 @@ def _odometry(ego: dict) -> EgoOdometry:
     return EgoOdometry(speed=f("speed"), accel=f("accel"), yaw_rate=f("yaw_rate"))
 
 
+def _ground(layout: RoadLayout, ego: dict) -> GroundMap | None:
+    """The recorded ego pose's ground map, as the run's frames had it (None without a pose)."""
+    pose = [ego.get(k) for k in ("x", "y", "yaw")]
+    if not all(isinstance(v, int | float) and np.isfinite(v) for v in pose):
+        return None
+    return layout.ground_map(tuple(float(v) for v in pose))
+
+
 def _finite(value: object, what: str) -> float:
     if not isinstance(value, int | float) or isinstance(value, bool) or not np.isfinite(value):
         raise ValueError(f"{what}: expected a finite number, got {value!r:.40}")
@@ -260,6 +271,7 @@ def replay_run(
     scenario = _with_overrides(scenario, overrides or {}, where)
     perturb = perturb or Perturbation()
     camera = camera_from_scenario(scenario)
+    layout = scenario_road(scenario)[2]  # the recorded road's pavements, for the ranger as in the run
     detector = RecordedDetector()
     stack = build_stack(scenario.perception, camera, scenario.camera.rate, intent=scenario.intent,
                         alerts=scenario.alerts, detector=detector, render=False)
@@ -276,7 +288,8 @@ def replay_run(
             if perturber is not None:
                 dets = perturber(dets)
             detector.next = dets
-            frame = Frame(tick=tick, t=t, camera=camera, odometry=_odometry(ego), index=index)
+            frame = Frame(tick=tick, t=t, camera=camera, odometry=_odometry(ego), index=index,
+                          ground=_ground(layout, ego))
             timings: dict[str, float] = {}
             t0 = time.perf_counter()
             dets, tracks, est, assessment, alerts = stack.process(frame, None, timings)
