@@ -224,8 +224,9 @@ class CameraModel:
         d_ego /= np.linalg.norm(d_ego, axis=1, keepdims=True)
         return d_ego.reshape(*shape, 3)
 
-    def ground_points(self, uv: np.ndarray, ground_z: float = 0.0) -> np.ndarray:
-        """Pixels (..., 2) -> ego-frame points (..., 3) on the plane z = ground_z.
+    def ground_points(self, uv: np.ndarray, ground_z: float | np.ndarray = 0.0) -> np.ndarray:
+        """Pixels (..., 2) -> ego-frame points (..., 3) on the plane z = ground_z (a scalar, or an
+        array broadcasting against the pixels' leading shape: a plane per pixel).
 
         NaN where the ray does not meet the plane in front of the camera (at or
         above the horizon).

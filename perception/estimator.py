@@ -429,7 +429,6 @@ class Estimator:
 
     def __init__(self, camera: CameraModel, config: EstimatorConfig | None = None) -> None:
         self.camera = camera
-        self._mapped = False  # the last frame's contacts were on a ground map's surfaces (``measure``)
         self.config = config or EstimatorConfig()
         self.priors = PriorTable(self.config)
         self.ranger = BoxRanger(camera, self.config, self.priors)
@@ -471,13 +470,7 @@ class Estimator:
         ``ground``: the frame's ground map, whose surface under each box's bottom-centre ray is
         the contact's plane (with ``config.ground_map``; None: the road plane).
         """
-        contact_z = None
-        self._mapped = ground is not None and self.config.ground_map
-        if self._mapped and len(xyxy):
-            b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
-            bottom = np.stack([0.5 * (b[:, 0] + b[:, 2]), b[:, 3]], axis=-1)
-            contact_z = ground.contact_heights(self.camera, np.nan_to_num(bottom, nan=-1e9))
-        return self.ranger.measure(xyxy, class_id, cos_heading, height, height_sigma, contact_z)
+        return self.ranger.measure(xyxy, class_id, cos_heading, height, height_sigma, ground)
 
     def update(
         self,
@@ -532,7 +525,8 @@ class Estimator:
         self._relative = not known
 
         n = len(tracks)
-        h_known, sh_known = self._learned_heights(tracks) if cfg.range_learned_height else (None, None)
+        mapped = ground is not None and cfg.ground_map  # contact heights known: the map's std, not the class's
+        h_known, sh_known = self._learned_heights(tracks, mapped) if cfg.range_learned_height else (None, None)
         meas = self.measure(self._boxes(tracks, detections), tracks.class_id, self._cos_heading(tracks),
                             h_known, sh_known, ground)
         valid = meas.valid
@@ -584,7 +578,7 @@ class Estimator:
                 trk.settled = bool(converged) or t - trk.born >= cfg.settle_max_s - 1e-9
             settled[i] = float(trk.settled)
             hw[i] = trk.half_width
-            height[i] = self._height_posterior(trk.height_sum, trk.height_info, cls)[0]
+            height[i] = self._height_posterior(trk.height_sum, trk.height_info, cls, mapped)[0]
             hist[i] = trk.history if trk.updates >= cfg.settle_updates and not self._relative else None
 
         for tid in [k for k, f in self._filters.items() if t - f.last_update > cfg.max_coast_s]:
@@ -621,9 +615,10 @@ class Estimator:
             trk.height_info += 1.0 / rel**2
             trk.height_sum += np.log(h) / rel**2
 
-    def _height_posterior(self, log_sum: float, info: float, cls: int) -> tuple[float, float]:
+    def _height_posterior(self, log_sum: float, info: float, cls: int, mapped: bool = False) -> tuple[float, float]:
         """A track's height and its std (m) from its evidence (``_add_height``: sum of log h / var and
-        of 1 / var) and its class's priors (module docstring, "Learned height").
+        of 1 / var) and its class's priors (module docstring, "Learned height"). ``mapped``: the
+        contacts' heights come from a ground map (``EstimatorConfig.ground_map_sigma`` for b).
 
         The ground cue reads a contact z above the road (a kerb, a pavement) as the road, so its
         heights are H m_z / (m_z - z): log h = log H + b, b ~ z / m_z, the same every frame. With
@@ -634,7 +629,7 @@ class Estimator:
         cid = np.array([cls])
         if not info > 0.0:
             return float(self.prior_of(cid, "height")[0]), float(self.prior_of(cid, "height_sigma")[0])
-        contact_sigma = self.config.ground_map_sigma if self._mapped else float(self.prior_of(cid, "contact_height_sigma")[0])
+        contact_sigma = self.config.ground_map_sigma if mapped else float(self.prior_of(cid, "contact_height_sigma")[0])
         vb = (contact_sigma / self.camera.mount[2]) ** 2
         vo, o = vb + 1.0 / info, log_sum / info
         w, m, v = [], [], []
@@ -652,7 +647,7 @@ class Estimator:
         h = float(np.exp(a))
         return h, h * float(np.sqrt(var))
 
-    def _learned_heights(self, tracks: Tracks) -> tuple[np.ndarray, np.ndarray]:
+    def _learned_heights(self, tracks: Tracks, mapped: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Each track's learned height and std (``_height_posterior``) for the ranging; NaN (the class
         prior) for tracks without a filter or evidence yet."""
         n = len(tracks)
@@ -660,7 +655,7 @@ class Estimator:
         for i, tid in enumerate(tracks.track_id):
             trk = self._filters.get(int(tid))
             if trk is not None and trk.height_info > 0.0:
-                h[i], sh[i] = self._height_posterior(trk.height_sum, trk.height_info, int(tracks.class_id[i]))
+                h[i], sh[i] = self._height_posterior(trk.height_sum, trk.height_info, int(tracks.class_id[i]), mapped)
         return h, sh
 
     def _cut_bottom_update(self, trk: _TrackFilter, meas: Measurement, i: int) -> tuple[np.ndarray, np.ndarray]:

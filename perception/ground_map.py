@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from lookahead.perception.camera import CameraModel
+from lookahead.perception.geometry import rotation_2d
 
 
 @dataclass(frozen=True)
@@ -46,12 +47,9 @@ class GroundMap:
     def height_at(self, xy: np.ndarray) -> np.ndarray:
         """Ground height (m) under ego-frame points ``xy`` (..., 2): the highest raised area
         containing each, 0 (the road) elsewhere."""
-        p = np.asarray(xy, dtype=np.float64)
         x0, y0, yaw = self.pose
-        c, s = np.cos(yaw), np.sin(yaw)
-        mx = x0 + c * p[..., 0] - s * p[..., 1]
-        my = y0 + s * p[..., 0] + c * p[..., 1]
-        r = self.rects
+        m = np.asarray(xy, dtype=np.float64) @ rotation_2d(yaw).T + (x0, y0)  # map frame
+        mx, my, r = m[..., 0], m[..., 1], self.rects
         inside = ((mx[..., None] >= r[:, 0]) & (mx[..., None] < r[:, 2])
                   & (my[..., None] >= r[:, 1]) & (my[..., None] < r[:, 3]))
         return np.max(np.where(inside, self.heights, 0.0), axis=-1, initial=0.0)

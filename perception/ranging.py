@@ -31,7 +31,7 @@ Let u_c = (x1 + x2) / 2, d(u, v) the ego-frame ray of a pixel
    pavement: 0.15 m in the simulator) puts x_g too far by z (x_g - m_x) / m_z;
    the class's ``contact_height_sigma`` (pedestrians 0.1 m) adds that spread
    to sigma_g, so at range the height cue weighs more for classes found on
-   pavements. A ground map (``perception.ground_map``, ``contact_z``) removes
+   pavements. A ground map (``perception.ground_map``, ``measure(ground=)``) removes
    the bias where it knows the ground: the ray meets the plane of the surface
    it hits first (a pavement's top) instead of z = 0.
 2. Height prior H +- sigma_H of the class. A vertical face at x whose foot
@@ -134,6 +134,7 @@ import numpy as np
 
 from lookahead.perception.camera import CameraModel
 from lookahead.perception.estimator_config import EstimatorConfig, PriorTable
+from lookahead.perception.ground_map import GroundMap
 
 _DV = 0.5  # px, finite-difference step for d(ray)/dv
 MIN_DEPTH = 0.1  # m, nearest camera-forward distance accepted for a measurement
@@ -218,7 +219,7 @@ class BoxRanger:
     def measure(
         self, xyxy: np.ndarray, class_id: np.ndarray, cos_heading: np.ndarray | None = None,
         height: np.ndarray | None = None, height_sigma: np.ndarray | None = None,
-        contact_z: np.ndarray | None = None,
+        ground: GroundMap | None = None,
     ) -> Measurement:
         """Position measurements (module docstring, steps 1-7) of boxes (N, 4) with classes (N,).
 
@@ -226,10 +227,10 @@ class BoxRanger:
         (1 = seen end-on, the default; 0 = side-on), for the contact offset.
         ``height`` / ``height_sigma`` (N,): each object's height and its std (m) where known --
         a track's learned height (``perception.estimator``) --, in place of the class prior
-        (step 2, 4 and 6); NaN or None: the class prior. ``contact_z`` (N,): the height (m) of the
-        ground under each box's contact where a map knows it (``perception.ground_map``: a
-        pavement's top); the ground cue meets that plane, not the road's, and the contact's
-        height is uncertain by the map's ``ground_map_sigma`` instead of the class's
+        (step 2, 4 and 6); NaN or None: the class prior. ``ground``: the frame's ground map
+        (``perception.ground_map``), used with ``config.ground_map``: each box's contact lies on
+        the surface its bottom-centre ray meets first (a pavement's top), and its height is
+        uncertain by the map's ``ground_map_sigma`` instead of the class's
         ``contact_height_sigma`` (step 1). None: the road plane, and the class's std.
         """
         b = np.asarray(xyxy, dtype=np.float64).reshape(-1, 4)
@@ -242,17 +243,13 @@ class BoxRanger:
             sh = np.broadcast_to(np.asarray(height_sigma, float).reshape(-1), (n,))
             known = np.isfinite(h) & np.isfinite(sh) & (h > 0) & (sh > 0)
             H, sH = np.where(known, h, H), np.where(known, sh, sH)
-        if contact_z is None:
-            zc, szc = np.zeros(n), self.priors.of(cid, "contact_height_sigma").astype(float)
-        else:
-            zc = np.nan_to_num(np.broadcast_to(np.asarray(contact_z, float).reshape(-1), (n,)), nan=0.0)
-            szc = np.full(n, self.config.ground_map_sigma)
         with np.errstate(all="ignore"):
-            return self._measure(b, cid, np.clip(np.nan_to_num(c, nan=1.0), 0.0, 1.0), H, sH, zc, szc)
+            return self._measure(b, cid, np.clip(np.nan_to_num(c, nan=1.0), 0.0, 1.0), H, sH,
+                                 ground if self.config.ground_map else None)
 
     def _measure(
-        self, b: np.ndarray, cid: np.ndarray, cos_h: np.ndarray, H: np.ndarray, sH: np.ndarray, zc: np.ndarray,
-        szc: np.ndarray,
+        self, b: np.ndarray, cid: np.ndarray, cos_h: np.ndarray, H: np.ndarray, sH: np.ndarray,
+        ground: GroundMap | None,
     ) -> Measurement:
         cfg, cam = self.config, self.camera
         n = len(b)
@@ -295,9 +292,12 @@ class BoxRanger:
         tan_y = np.where(fwd, rays[..., 1] / rays[..., 0], np.nan)  # d_y / d_x
 
         # 1. ground contact (also the bound U of boxes cut at the bottom)
-        d = rays[:, :3]  # the bottom-centre rays meet the contact's plane z = zc (the road's, or a pavement's)
-        hit = (zc[:, None] - mz) / np.where(d[..., 2] != 0.0, d[..., 2], np.nan)
-        gp = np.asarray(cam.mount) + np.where(hit > 0.0, hit, np.nan)[..., None] * d
+        # on the plane of the contact: the road's, or the surface a ground map says the ray meets first
+        if ground is None:
+            zc, szc = np.zeros(n), self.priors.of(cid, "contact_height_sigma").astype(float)
+        else:
+            zc, szc = ground.contact_heights(cam, pix[:, 0]), np.full(n, cfg.ground_map_sigma)
+        gp = cam.ground_points(pix[:, :3], zc[:, None]) if n else np.zeros((0, 3, 3))
         xg_all = gp[:, 0, 0]
         dxdv = np.abs(gp[:, 1, 0] - gp[:, 2, 0]) / (2.0 * _DV)
         sig_g = dxdv * np.hypot(sv, cam.fy * cfg.pitch_sigma)

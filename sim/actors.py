@@ -15,6 +15,8 @@ from highway_env.road.road import Road
 from highway_env.vehicle.kinematics import Vehicle
 
 from lookahead.intent.labels import Behaviour
+from lookahead.perception.geometry import rotation_2d
+from lookahead.sim.road import to_hw
 from lookahead.sim.scenario import DEFAULT_ACCEL, ActionSpec, ActorSpec, StepSpec
 
 DEFAULT_TURN_RATE = {"pedestrian": 3.0, "animal": 3.0, "car": 0.6, "truck": 0.4, "bus": 0.4}
@@ -101,11 +103,7 @@ class ScriptedActor(Vehicle):
             return super().polygon()
         (cx, cy, _), (length, width, _) = self.identity.shape.local_box((self.gait_phase, self.arm, self.body))
         corners = np.array([[-1.0, -1.0], [-1.0, 1.0], [1.0, 1.0], [1.0, -1.0], [-1.0, -1.0]]) * [length / 2, width / 2]
-        local = corners + [cx, cy]
-        yaw = self.yaw
-        c, s = np.cos(yaw), np.sin(yaw)
-        world = self.xy + local @ np.array([[c, s], [-s, c]])
-        return world * [1.0, -1.0]  # highway-env's y points the other way
+        return to_hw(self.xy + (corners + [cx, cy]) @ rotation_2d(self.yaw).T)
 
     # -------------------------------------------------------------- script
     def apply(self, action: ActionSpec) -> None:
@@ -165,8 +163,8 @@ class ScriptedActor(Vehicle):
         elif self.gesture == "fall":
             self.body = min(np.pi / 2, np.pi / 2 * (t / FALL_S) ** 2)  # a toppling body speeds up
             # the collision check's coarse test reaches the fallen body's far end
-            (cx, cy, _), (length, width, _) = self.identity.shape.local_box((self.gait_phase, self.arm, self.body))
-            self.diagonal = max(self.diagonal, 2.0 * float(np.hypot(abs(cx) + length / 2, abs(cy) + width / 2)))
+            reach = float(np.linalg.norm(self.polygon() - self.position, axis=1).max())
+            self.diagonal = max(self.diagonal, 2.0 * reach)
         elif self.loiter is not None:
             centre, axis, half = self.loiter
             along = float(np.dot(xy - centre, axis))

@@ -8,6 +8,7 @@ Built by ``sim.road`` from the highway-env network; read by ``sim.renderer``. Al
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -74,8 +75,14 @@ class RoadLayout:
     def ground_map(self, pose: tuple[float, float, float]) -> GroundMap:
         """The raised ground (the sidewalks at ``kerb_height``) as perception's map, with the pose
         (world x, y, yaw) of the ego frame that looks at it (``perception.ground_map``)."""
+        rects, heights = self._raised
+        return GroundMap(rects, heights, tuple(float(v) for v in pose))
+
+    @cached_property
+    def _raised(self) -> tuple[np.ndarray, np.ndarray]:
+        """The sidewalks (K, 4) [x0, y0, x1, y1] and their heights (K,), built once."""
         rects = np.array([[s.x0, s.y0, s.x1, s.y1] for s in self.sidewalks], dtype=np.float64).reshape(-1, 4)
-        return GroundMap(rects, np.full(len(rects), self.kerb_height), tuple(float(v) for v in pose))
+        return rects, np.full(len(rects), self.kerb_height)
 
     def bounds(self) -> np.ndarray:
         """[x0, y0, x1, y1] of everything in the layout (m)."""

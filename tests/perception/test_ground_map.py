@@ -50,11 +50,10 @@ def test_a_ray_meets_the_pavement_before_the_road():
 @pytest.mark.parametrize("x", [10.0, 25.0, 40.0])
 def test_a_pedestrian_on_the_pavement_is_ranged_from_its_top(x):
     box = person_box(x, -3.0, KERB)[None]
-    ranger = BoxRanger(CAMERA, EstimatorConfig())
+    ranger = BoxRanger(CAMERA, EstimatorConfig(ground_map=True))
     ped = np.array([CLASS_ID["pedestrian"]])
     road = ranger.measure(box, ped)
-    bottom = np.array([[0.5 * (box[0, 0] + box[0, 2]), box[0, 3]]])
-    mapped = ranger.measure(box, ped, contact_z=PAVEMENT.contact_heights(CAMERA, bottom))
+    mapped = ranger.measure(box, ped, ground=PAVEMENT)
     depth = x - CAMERA.mount[0]
     # the road plane puts the feet KERB / m_z (11 %) too far; the pavement's plane where they are
     assert road.x_ground[0] - x == pytest.approx(depth * KERB / (CAMERA.mount[2] - KERB), rel=0.02)
